@@ -1,0 +1,12 @@
+#!/usr/bin/env bash
+# README's test command: sets up everything on a fresh Debian machine (packages, cached Kokkos), builds mpmrom in
+# double and in float precision, and runs the whole test suite for both. Exits non-zero on any failure.
+set -euo pipefail
+here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+status=0
+for precision in double float; do
+  build_dir=$("$here/scripts/build.sh" "$precision")
+  echo "== tests, $precision precision ==" >&2
+  (cd "$build_dir" && ctest --output-on-failure --timeout 1200) || status=1
+done
+exit $status

@@ -1,0 +1,48 @@
+#include "runtime.hpp"
+
+#include <fstream>
+
+#include "kernels/compat/kokkos_compat.hpp"
+#include "mpmrom_config.hpp"
+
+namespace mpmrom {
+namespace {
+
+std::string cpu_model() {
+  std::ifstream cpuinfo("/proc/cpuinfo");
+  std::string line;
+  while (std::getline(cpuinfo, line)) {
+    if (line.rfind("model name", 0) == 0) {
+      const auto colon = line.find(':');
+      if (colon != std::string::npos) return line.substr(line.find_first_not_of(' ', colon + 1));
+    }
+  }
+  return "unknown CPU";
+}
+
+std::string device_name() {
+#if defined(KOKKOS_ENABLE_CUDA)
+  return Kokkos::DefaultExecutionSpace().cuda_device_prop().name;
+#else
+  return cpu_model();
+#endif
+}
+
+}  // namespace
+
+KokkosSession::KokkosSession(int threads, int device) { compat::initialize(threads, device); }
+KokkosSession::~KokkosSession() { Kokkos::finalize(); }
+
+RuntimeInfo runtime_info() {
+  RuntimeInfo info;
+  info.backend = Kokkos::DefaultExecutionSpace::name();
+  info.threads = compat::concurrency(Kokkos::DefaultHostExecutionSpace());
+  info.device = device_name();
+  info.kokkos_version = compat::kokkos_version_string();
+  info.precision = MPMROM_PRECISION_NAME;
+  info.version = MPMROM_VERSION_STRING;
+  info.git_commit = git_commit();
+  return info;
+}
+
+}  // namespace mpmrom

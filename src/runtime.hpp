@@ -1,0 +1,32 @@
+// What this process runs on: backend, threads, device, versions. Every benchmark record and output file names it.
+#pragma once
+
+#include <string>
+
+namespace mpmrom {
+
+struct RuntimeInfo {
+  std::string backend;         // Kokkos default execution space: Serial, OpenMP, Cuda
+  int threads = 1;             // concurrency of the default host execution space
+  std::string device;          // CPU model or GPU name
+  std::string kokkos_version;  // major.minor.patch
+  std::string precision;       // float or double
+  std::string version;         // mpmrom version
+  std::string git_commit;      // commit the binary was built from
+};
+
+// Kokkos for the lifetime of this object: threads <= 0 and device < 0 leave Kokkos' defaults (OMP_NUM_THREADS, GPU 0).
+class KokkosSession {
+ public:
+  explicit KokkosSession(int threads = 0, int device = -1);
+  ~KokkosSession();
+  KokkosSession(const KokkosSession&) = delete;
+  KokkosSession& operator=(const KokkosSession&) = delete;
+};
+
+// Requires Kokkos to be initialised.
+RuntimeInfo runtime_info();
+
+const char* git_commit();  // defined in the generated git_commit.cpp
+
+}  // namespace mpmrom

@@ -1,0 +1,10 @@
+// GoogleTest main with Kokkos initialised for the whole run (Kokkos may be initialised once per process).
+#include <gtest/gtest.h>
+
+#include <Kokkos_Core.hpp>
+
+int main(int argc, char** argv) {
+  ::testing::InitGoogleTest(&argc, argv);
+  Kokkos::ScopeGuard kokkos(argc, argv);
+  return RUN_ALL_TESTS();
+}
