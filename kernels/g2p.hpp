@@ -1,0 +1,47 @@
+// Grid-to-particle transfer and particle update:
+//   v_p = sum_i w_ip v_i,  C_p = (4 / dx^2) sum_i w_ip v_i (x_i - x_p)^T (APIC; zero for PIC),
+//   F_p <- (I + dt sum_i v_i grad w_ip^T) F_p,  x_p <- x_p + dt v_p.
+// Returns the largest particle speed, which sets the next CFL time step. Parallelism: one thread per particle.
+#pragma once
+
+#include "kernels/bspline.hpp"
+#include "kernels/grid.hpp"
+#include "kernels/particles.hpp"
+
+namespace mpmrom {
+
+template <class ExecutionSpace, class MemorySpace>
+real_t g2p(const ExecutionSpace& space, const ParticleViews<MemorySpace>& particles,
+           const GridNodeView<MemorySpace>& nodes, const GridGeometry<real_t>& grid, real_t dt, bool apic) {
+  real_t max_speed = 0;
+  // D_p^{-1} = 4 / dx^2 for quadratic B-splines (Jiang et al. 2015).
+  const real_t inverse_inertia = real_t(4) * grid.inv_dx * grid.inv_dx;
+  Kokkos::parallel_reduce(
+      "mpmrom::fom::g2p", Kokkos::RangePolicy<ExecutionSpace>(space, 0, particles.size()),
+      KOKKOS_LAMBDA(const int p, real_t& speed) {
+        const Vec3<real_t> x = load_vec3(particles.x, p);
+        const auto s = quadratic_stencil(x, grid.origin, grid.inv_dx);
+        if (!grid.stencil_inside(s.base)) return;  // P2G has counted it; the driver stops the run
+        Vec3<real_t> v = Vec3<real_t>::zero();
+        Mat3<real_t> affine = Mat3<real_t>::zero(), velocity_gradient = Mat3<real_t>::zero();
+        for (int a = 0; a < 3; ++a)
+          for (int b = 0; b < 3; ++b)
+            for (int c = 0; c < 3; ++c) {
+              const int node = grid.index(s.base[0] + a, s.base[1] + b, s.base[2] + c);
+              const Vec3<real_t> vi{{nodes(node, 1), nodes(node, 2), nodes(node, 3)}};
+              const real_t w = s.weight(a, b, c);
+              v += w * vi;
+              affine += w * outer(vi, s.node_offset(a, b, c, x, grid.origin, grid.dx));
+              velocity_gradient += outer(vi, s.gradient(a, b, c));
+            }
+        store_vec3(particles.v, p, v);
+        store_mat3(particles.C, p, apic ? inverse_inertia * affine : Mat3<real_t>::zero());
+        store_mat3(particles.F, p, (Mat3<real_t>::identity() + dt * velocity_gradient) * load_mat3(particles.F, p));
+        store_vec3(particles.x, p, x + dt * v);
+        speed = math::max(speed, norm(v));
+      },
+      Kokkos::Max<real_t>(max_speed));
+  return max_speed;
+}
+
+}  // namespace mpmrom

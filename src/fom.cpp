@@ -1,0 +1,214 @@
+#include "fom.hpp"
+
+#include <cmath>
+#include <stdexcept>
+
+#include "sampling.hpp"
+
+namespace mpmrom {
+namespace {
+
+Contact to_contact(ContactKind kind) {
+  switch (kind) {
+    case ContactKind::Sticky:
+      return Contact::Sticky;
+    case ContactKind::Slip:
+      return Contact::Slip;
+    case ContactKind::Separate:
+      return Contact::Separate;
+  }
+  return Contact::Separate;
+}
+
+GridGeometry<real_t> make_grid(const Scene& scene) {
+  GridGeometry<real_t> grid;
+  grid.dx = static_cast<real_t>(scene.dx);
+  grid.inv_dx = static_cast<real_t>(1 / scene.dx);
+  double nodes = 1;
+  for (int d = 0; d < 3; ++d) {
+    grid.origin[d] = static_cast<real_t>(scene.domain.lo[d]);
+    grid.dims[d] = static_cast<int>(std::ceil((scene.domain.hi[d] - scene.domain.lo[d]) / scene.dx - 1e-9)) + 1;
+    nodes *= grid.dims[d];
+  }
+  if (nodes > 2e9) throw std::runtime_error("the grid would have more than 2e9 nodes; enlarge dx or shrink the domain");
+  return grid;
+}
+
+}  // namespace
+
+FomSolver::FomSolver(const Scene& scene, P2GStrategy strategy)
+    : scene_(scene),
+      strategy_(strategy),
+      grid_(make_grid(scene)),
+      material_(elastic_material<real_t>(
+          scene.material.model == ElasticModelKind::NeoHookean ? ElasticModel::NeoHookean
+                                                               : ElasticModel::FixedCorotated,
+          static_cast<real_t>(scene.material.youngs_modulus), static_cast<real_t>(scene.material.poisson_ratio))),
+      wave_speed_(stable_time_step_wave_speed(material_, static_cast<real_t>(scene.material.density))),
+      outside_("mpmrom::fom::outside") {
+  if (scene.forces.size() > static_cast<std::size_t>(kMaxExternalForces))
+    throw std::runtime_error("at most " + std::to_string(kMaxExternalForces) + " [[force]] entries are supported");
+  if (scene.dirichlet.size() > static_cast<std::size_t>(kMaxDirichletRegions))
+    throw std::runtime_error("at most " + std::to_string(kMaxDirichletRegions) +
+                             " [[dirichlet]] entries are supported");
+
+  const ParticleSamples samples = sample_scene(scene);
+  const std::size_t n = samples.size();
+  const int num_forces = static_cast<int>(scene.forces.size());
+  particles_ = ParticleViews<MemorySpace>(n, num_forces);
+  nodes_ = GridNodeView<MemorySpace>("mpmrom::fom::grid_nodes", grid_.num_nodes());
+  if (strategy_ == P2GStrategy::ScatterView) scatter_ = GridScatterView<ExecutionSpace, MemorySpace>(nodes_);
+
+  auto X = Kokkos::create_mirror_view(particles_.X);
+  auto v = Kokkos::create_mirror_view(particles_.v);
+  auto F = Kokkos::create_mirror_view(particles_.F);
+  auto C = Kokkos::create_mirror_view(particles_.C);
+  auto mass = Kokkos::create_mirror_view(particles_.mass);
+  auto volume = Kokkos::create_mirror_view(particles_.volume);
+  auto share = Kokkos::create_mirror_view(particles_.force_share);
+  for (std::size_t p = 0; p < n; ++p) {
+    const Vec3d& w = scene.bodies[samples.body[p]].angular_velocity;
+    // A rigid spin v = w x r has velocity gradient [w]_x, which APIC carries in C from the start.
+    const double spin[3][3] = {{0, -w[2], w[1]}, {w[2], 0, -w[0]}, {-w[1], w[0], 0}};
+    for (int i = 0; i < 3; ++i) {
+      X(p, i) = static_cast<real_t>(samples.X[3 * p + i]);
+      v(p, i) = static_cast<real_t>(samples.velocity[3 * p + i]);
+      for (int j = 0; j < 3; ++j) {
+        F(p, i, j) = i == j ? real_t(1) : real_t(0);
+        C(p, i, j) = scene.transfer == TransferKind::APIC ? static_cast<real_t>(spin[i][j]) : real_t(0);
+      }
+    }
+    mass(p) = static_cast<real_t>(samples.mass[p]);
+    volume(p) = static_cast<real_t>(samples.volume[p]);
+  }
+  for (int k = 0; k < num_forces; ++k) {
+    double region_mass = 0;
+    for (std::size_t p = 0; p < n; ++p)
+      if (scene.forces[k].region.contains({samples.X[3 * p], samples.X[3 * p + 1], samples.X[3 * p + 2]}))
+        region_mass += samples.mass[p];
+    if (region_mass <= 0)
+      throw std::runtime_error("[[force]] " + std::to_string(k + 1) +
+                               " acts on no material point: its region is empty");
+    for (std::size_t p = 0; p < n; ++p) {
+      const bool inside =
+          scene.forces[k].region.contains({samples.X[3 * p], samples.X[3 * p + 1], samples.X[3 * p + 2]});
+      share(p, k) = inside ? static_cast<real_t>(samples.mass[p] / region_mass) : real_t(0);
+    }
+  }
+  Kokkos::deep_copy(particles_.X, X);
+  Kokkos::deep_copy(particles_.x, X);
+  Kokkos::deep_copy(particles_.v, v);
+  Kokkos::deep_copy(particles_.F, F);
+  Kokkos::deep_copy(particles_.C, C);
+  Kokkos::deep_copy(particles_.mass, mass);
+  Kokkos::deep_copy(particles_.volume, volume);
+  Kokkos::deep_copy(particles_.force_share, share);
+
+  real_t speed = 0;
+  for (std::size_t p = 0; p < n; ++p)
+    speed = std::max(speed, static_cast<real_t>(std::sqrt(v(p, 0) * v(p, 0) + v(p, 1) * v(p, 1) + v(p, 2) * v(p, 2))));
+  max_speed_ = speed;
+}
+
+double FomSolver::stable_time_step() const { return scene_.cfl * scene_.dx / (wave_speed_ + max_speed_); }
+
+void FomSolver::step(double dt) {
+  const ExecutionSpace space;
+  ExternalForces external;
+  for (const auto& f : scene_.forces) {
+    const bool active = time_ >= f.start && time_ < f.end;
+    for (int d = 0; d < 3; ++d) external.force[3 * external.count + d] = active ? static_cast<real_t>(f.force[d]) : 0;
+    ++external.count;
+  }
+  GridBoundary boundary;
+  boundary.walls = to_contact(scene_.walls);
+  boundary.ground = scene_.ground.enabled;
+  boundary.ground_height = static_cast<real_t>(scene_.ground.height);
+  boundary.ground_contact = to_contact(scene_.ground.contact);
+  for (const auto& region : scene_.dirichlet) {
+    if (!(time_ >= region.start && time_ < region.end)) continue;
+    const int r = boundary.num_dirichlet++;
+    for (int d = 0; d < 3; ++d) {
+      boundary.dirichlet_box[6 * r + d] = static_cast<real_t>(region.region.lo[d]);
+      boundary.dirichlet_box[6 * r + 3 + d] = static_cast<real_t>(region.region.hi[d]);
+      boundary.dirichlet_velocity[3 * r + d] = static_cast<real_t>(region.velocity[d]);
+    }
+  }
+  const Vec3<real_t> gravity{{static_cast<real_t>(scene_.gravity[0]), static_cast<real_t>(scene_.gravity[1]),
+                              static_cast<real_t>(scene_.gravity[2])}};
+  const bool apic = scene_.transfer == TransferKind::APIC;
+  const P2GParticle<MemorySpace> kernel{particles_, grid_,   material_, external, static_cast<real_t>(dt),
+                                        apic,       outside_};
+
+  Kokkos::deep_copy(space, nodes_, real_t(0));
+  if (strategy_ == P2GStrategy::Atomic)
+    p2g_atomic(space, kernel, nodes_);
+  else
+    p2g_scatter(space, kernel, scatter_, nodes_);
+  grid_update(space, nodes_, grid_, gravity, boundary, static_cast<real_t>(dt));
+  max_speed_ = g2p(space, particles_, nodes_, grid_, static_cast<real_t>(dt), apic);
+
+  int outside = 0;
+  Kokkos::deep_copy(outside, outside_);
+  if (outside > 0)
+    throw std::runtime_error("step " + std::to_string(steps_ + 1) + " (t = " + std::to_string(time_) + " s): " +
+                             std::to_string(outside) + " material points left the grid; enlarge [grid] lo/hi");
+  if (!std::isfinite(max_speed_))
+    throw std::runtime_error("step " + std::to_string(steps_ + 1) + " (t = " + std::to_string(time_) +
+                             " s): the velocity is no longer finite; lower [time] cfl");
+  time_ += dt;
+  ++steps_;
+}
+
+void FomSolver::advance_to(double target_time) {
+  while (time_ < target_time) {
+    const double remaining = target_time - time_;
+    const double dt_max = stable_time_step();
+    // Equal sub-steps that land on target_time, none longer than the CFL limit.
+    const double substeps = std::ceil(remaining / dt_max - 1e-9);
+    const double dt = substeps <= 1 ? remaining : remaining / substeps;
+    step(dt);
+    if (substeps <= 1) time_ = target_time;
+  }
+}
+
+void FomSolver::reference(std::vector<real_t>& X, std::vector<real_t>& mass, std::vector<real_t>& volume) const {
+  const std::size_t n = num_particles();
+  auto hX = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), particles_.X);
+  auto hm = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), particles_.mass);
+  auto hV = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), particles_.volume);
+  X.resize(3 * n);
+  mass.resize(n);
+  volume.resize(n);
+  for (std::size_t p = 0; p < n; ++p) {
+    for (int d = 0; d < 3; ++d) X[3 * p + d] = hX(p, d);
+    mass[p] = hm(p);
+    volume[p] = hV(p);
+  }
+}
+
+ParticleFrame FomSolver::frame() const {
+  const std::size_t n = num_particles();
+  ParticleFrame f;
+  f.time = time_;
+  auto hx = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), particles_.x);
+  auto hv = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), particles_.v);
+  auto hF = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), particles_.F);
+  auto hC = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), particles_.C);
+  f.x.resize(3 * n);
+  f.v.resize(3 * n);
+  f.F.resize(9 * n);
+  f.C.resize(9 * n);
+  for (std::size_t p = 0; p < n; ++p)
+    for (int i = 0; i < 3; ++i) {
+      f.x[3 * p + i] = hx(p, i);
+      f.v[3 * p + i] = hv(p, i);
+      for (int j = 0; j < 3; ++j) {
+        f.F[9 * p + 3 * i + j] = hF(p, i, j);
+        f.C[9 * p + 3 * i + j] = hC(p, i, j);
+      }
+    }
+  return f;
+}
+
+}  // namespace mpmrom

@@ -1,0 +1,370 @@
+#include "hdf5_file.hpp"
+
+#include <hdf5.h>
+
+#include <algorithm>
+#include <functional>
+#include <numeric>
+#include <stdexcept>
+
+namespace mpmrom::hdf5 {
+namespace {
+
+static_assert(std::is_same_v<hid_t, std::int64_t>, "Handle stores hid_t as int64_t (HDF5 1.10 or newer)");
+
+// HDF5 chunks must stay below 4 GiB; growing datasets split larger entries along their first dimension.
+constexpr hsize_t max_chunk_bytes = hsize_t(1) << 30;
+
+// HDF5 would otherwise print its error stack to stderr for every failure, including those the callers handle.
+void turn_off_error_printing() {
+  static const bool turned_off = H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr) >= 0;
+  (void)turned_off;
+}
+
+// The innermost message of HDF5's error stack, the most specific one, e.g. "file signature not found".
+std::string innermost_reason() {
+  std::string reason = "unknown HDF5 error";
+  const H5E_walk2_t keep_last = [](unsigned, const H5E_error2_t* error, void* data) -> herr_t {
+    if (error->desc != nullptr && *error->desc != '\0') *static_cast<std::string*>(data) = error->desc;
+    return 0;
+  };
+  H5Ewalk2(H5E_DEFAULT, H5E_WALK_DOWNWARD, keep_last, &reason);
+  H5Eclear2(H5E_DEFAULT);
+  return reason;
+}
+
+[[noreturn]] void fail(const std::string& file_name, const std::string& action, const std::string& object) {
+  throw std::runtime_error(file_name + ": cannot " + action + " " + object + ": " + innermost_reason());
+}
+
+[[noreturn]] void refuse(const std::string& file_name, const std::string& object, const std::string& problem) {
+  throw std::runtime_error(file_name + ": " + object + " " + problem);
+}
+
+hid_t file_type(Element type) {
+  if (type == Element::float32) return H5T_IEEE_F32LE;
+  return type == Element::float64 ? H5T_IEEE_F64LE : H5T_STD_I64LE;
+}
+
+hid_t memory_type(Element type) {
+  if (type == Element::float32) return H5T_NATIVE_FLOAT;
+  return type == Element::float64 ? H5T_NATIVE_DOUBLE : H5T_NATIVE_INT64;
+}
+
+hsize_t element_bytes(Element type) { return type == Element::float32 ? 4 : 8; }
+
+hsize_t product(const std::vector<hsize_t>& dims) {
+  return std::accumulate(dims.begin(), dims.end(), hsize_t(1), std::multiplies<>());
+}
+
+std::string attribute_name(const Object& object, const std::string& name) {
+  return "attribute '" + name + "' of " + object.path();
+}
+
+Handle variable_string_type(const Object& object) {
+  Handle type(H5Tcopy(H5T_C_S1));
+  if (!type.is_open() || H5Tset_size(type.get(), H5T_VARIABLE) < 0 || H5Tset_cset(type.get(), H5T_CSET_UTF8) < 0) {
+    fail(object.file_name(), "make", "a string type for " + object.path());
+  }
+  return type;
+}
+
+void write_attribute(const Object& object, const std::string& name, hid_t type, hid_t space, const void* data) {
+  const std::string what = attribute_name(object, name);
+  const htri_t exists = H5Aexists(object.id(), name.c_str());
+  if (exists < 0 || (exists > 0 && H5Adelete(object.id(), name.c_str()) < 0)) fail(object.file_name(), "replace", what);
+  const Handle attribute(H5Acreate2(object.id(), name.c_str(), type, space, H5P_DEFAULT, H5P_DEFAULT));
+  if (!attribute.is_open() || (data != nullptr && H5Awrite(attribute.get(), type, data) < 0)) {
+    fail(object.file_name(), "write", what);
+  }
+}
+
+// An open attribute with its type and element count.
+struct OpenAttribute {
+  Handle attribute;
+  Handle type;
+  hssize_t count = 0;
+};
+
+OpenAttribute open_attribute(const Object& object, const std::string& name) {
+  const std::string what = attribute_name(object, name);
+  const htri_t exists = H5Aexists(object.id(), name.c_str());
+  if (exists < 0) fail(object.file_name(), "look for", what);
+  if (exists == 0) refuse(object.file_name(), what, "is missing");
+  OpenAttribute open{Handle(H5Aopen(object.id(), name.c_str(), H5P_DEFAULT)), Handle(), 0};
+  if (!open.attribute.is_open()) fail(object.file_name(), "open", what);
+  open.type = Handle(H5Aget_type(open.attribute.get()));
+  const Handle space(H5Aget_space(open.attribute.get()));
+  open.count = space.is_open() ? H5Sget_simple_extent_npoints(space.get()) : -1;
+  if (!open.type.is_open() || open.count < 0) fail(object.file_name(), "inspect", what);
+  return open;
+}
+
+OpenAttribute open_string_attribute(const Object& object, const std::string& name) {
+  OpenAttribute open = open_attribute(object, name);
+  if (H5Tget_class(open.type.get()) != H5T_STRING || H5Tis_variable_str(open.type.get()) <= 0) {
+    refuse(object.file_name(), attribute_name(object, name), "is not a variable-length string");
+  }
+  return open;
+}
+
+OpenAttribute open_scalar_attribute(const Object& object, const std::string& name, bool integer_only) {
+  OpenAttribute open = open_attribute(object, name);
+  const H5T_class_t type_class = H5Tget_class(open.type.get());
+  const bool number = type_class == H5T_INTEGER || (!integer_only && type_class == H5T_FLOAT);
+  if (!number || open.count != 1) {
+    refuse(object.file_name(), attribute_name(object, name), integer_only ? "is not an integer" : "is not a number");
+  }
+  return open;
+}
+
+std::vector<hsize_t> dataset_dims(const Object& dataset, const Handle& space) {
+  const int rank = space.is_open() ? H5Sget_simple_extent_ndims(space.get()) : -1;
+  std::vector<hsize_t> dims(std::max(rank, 0));
+  if (rank < 0 || H5Sget_simple_extent_dims(space.get(), dims.data(), nullptr) < 0) {
+    fail(dataset.file_name(), "read the shape of", "dataset " + dataset.path());
+  }
+  return dims;
+}
+
+}  // namespace
+
+Handle::~Handle() { release(); }
+
+Handle::Handle(Handle&& other) noexcept : id_(std::exchange(other.id_, -1)) {}
+
+Handle& Handle::operator=(Handle&& other) noexcept {
+  if (this != &other) {
+    release();
+    id_ = std::exchange(other.id_, -1);
+  }
+  return *this;
+}
+
+bool Handle::release() {
+  if (id_ < 0) return true;
+  const bool released = H5Idec_ref(id_) >= 0;
+  id_ = -1;
+  return released;
+}
+
+void Object::close() {
+  if (!handle_.release()) fail(file_name_, "close", path_);
+}
+
+std::string Object::child_path(const std::string& name) const { return path_ == "/" ? "/" + name : path_ + "/" + name; }
+
+bool Object::has_attribute(const std::string& name) const {
+  const htri_t exists = H5Aexists(id(), name.c_str());
+  if (exists < 0) fail(file_name_, "look for", attribute_name(*this, name));
+  return exists > 0;
+}
+
+void Object::set_string_attribute(const std::string& name, const std::string& value) {
+  const Handle type = variable_string_type(*this);
+  const Handle space(H5Screate(H5S_SCALAR));
+  const char* data = value.c_str();
+  write_attribute(*this, name, type.get(), space.get(), &data);
+}
+
+void Object::set_string_list_attribute(const std::string& name, const std::vector<std::string>& values) {
+  const Handle type = variable_string_type(*this);
+  const hsize_t count = values.size();
+  const Handle space(H5Screate_simple(1, &count, nullptr));
+  std::vector<const char*> data;
+  for (const auto& value : values) data.push_back(value.c_str());
+  write_attribute(*this, name, type.get(), space.get(), data.empty() ? nullptr : data.data());
+}
+
+void Object::set_double_attribute(const std::string& name, double value) {
+  const Handle space(H5Screate(H5S_SCALAR));
+  write_attribute(*this, name, H5T_NATIVE_DOUBLE, space.get(), &value);
+}
+
+void Object::set_integer_attribute(const std::string& name, std::int64_t value) {
+  const Handle space(H5Screate(H5S_SCALAR));
+  write_attribute(*this, name, H5T_NATIVE_INT64, space.get(), &value);
+}
+
+void Object::remove_attribute(const std::string& name) {
+  if (H5Adelete(id(), name.c_str()) < 0) fail(file_name_, "remove", attribute_name(*this, name));
+}
+
+std::string Object::string_attribute(const std::string& name) const {
+  const OpenAttribute open = open_string_attribute(*this, name);
+  if (open.count != 1) refuse(file_name_, attribute_name(*this, name), "is not a single string");
+  char* value = nullptr;
+  if (H5Aread(open.attribute.get(), open.type.get(), &value) < 0) fail(file_name_, "read", attribute_name(*this, name));
+  std::string result = value != nullptr ? value : "";
+  H5free_memory(value);
+  return result;
+}
+
+std::vector<std::string> Object::string_list_attribute(const std::string& name) const {
+  const OpenAttribute open = open_string_attribute(*this, name);
+  std::vector<char*> values(static_cast<std::size_t>(open.count), nullptr);
+  if (!values.empty() && H5Aread(open.attribute.get(), open.type.get(), values.data()) < 0) {
+    fail(file_name_, "read", attribute_name(*this, name));
+  }
+  std::vector<std::string> result;
+  for (char* value : values) {
+    result.emplace_back(value != nullptr ? value : "");
+    H5free_memory(value);
+  }
+  return result;
+}
+
+double Object::double_attribute(const std::string& name) const {
+  const OpenAttribute open = open_scalar_attribute(*this, name, false);
+  double value = 0;
+  if (H5Aread(open.attribute.get(), H5T_NATIVE_DOUBLE, &value) < 0) {
+    fail(file_name_, "read", attribute_name(*this, name));
+  }
+  return value;
+}
+
+std::int64_t Object::integer_attribute(const std::string& name) const {
+  const OpenAttribute open = open_scalar_attribute(*this, name, true);
+  std::int64_t value = 0;
+  if (H5Aread(open.attribute.get(), H5T_NATIVE_INT64, &value) < 0) {
+    fail(file_name_, "read", attribute_name(*this, name));
+  }
+  return value;
+}
+
+std::vector<std::size_t> Dataset::shape() const {
+  const auto dims = dataset_dims(*this, Handle(H5Dget_space(id())));
+  return {dims.begin(), dims.end()};
+}
+
+void Dataset::write_from(const void* data, Element type) {
+  if (H5Dwrite(id(), memory_type(type), H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0) {
+    fail(file_name_, "write", "dataset " + path_);
+  }
+}
+
+void Dataset::append_from(const void* entry, Element type) {
+  auto dims = dataset_dims(*this, Handle(H5Dget_space(id())));
+  if (dims.empty()) refuse(file_name_, "dataset " + path_, "is a scalar and cannot grow");
+  std::vector<hsize_t> start(dims.size(), 0), count = dims;
+  start[0] = dims[0];
+  count[0] = 1;
+  dims[0] += 1;
+  if (H5Dset_extent(id(), dims.data()) < 0) fail(file_name_, "grow", "dataset " + path_);
+  const Handle file_space(H5Dget_space(id()));
+  // The memory space has the shape of the file selection: HDF5 then maps it to the chunk in one piece instead of
+  // element by element.
+  const Handle memory_space(H5Screate_simple(static_cast<int>(count.size()), count.data(), nullptr));
+  if (!file_space.is_open() || !memory_space.is_open() ||
+      H5Sselect_hyperslab(file_space.get(), H5S_SELECT_SET, start.data(), nullptr, count.data(), nullptr) < 0 ||
+      H5Dwrite(id(), memory_type(type), memory_space.get(), file_space.get(), H5P_DEFAULT, entry) < 0) {
+    fail(file_name_, "append to", "dataset " + path_);
+  }
+}
+
+std::vector<double> Dataset::read() const {
+  const auto dims = dataset_dims(*this, Handle(H5Dget_space(id())));
+  std::vector<double> values(product(dims));
+  if (!values.empty() && H5Dread(id(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, values.data()) < 0) {
+    fail(file_name_, "read", "dataset " + path_);
+  }
+  return values;
+}
+
+Group Group::create_group(const std::string& name) {
+  Handle handle(H5Gcreate2(id(), name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT));
+  if (!handle.is_open()) fail(file_name_, "create", "group " + child_path(name));
+  return Group(std::move(handle), file_name_, child_path(name));
+}
+
+Group Group::group(const std::string& name) const {
+  Handle handle(H5Gopen2(id(), name.c_str(), H5P_DEFAULT));
+  if (!handle.is_open()) fail(file_name_, "open", "group " + child_path(name));
+  return Group(std::move(handle), file_name_, child_path(name));
+}
+
+Dataset Group::create_dataset(const std::string& name, Element type, const std::vector<std::size_t>& shape) {
+  const std::vector<hsize_t> dims(shape.begin(), shape.end());
+  const Handle space(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr));
+  Handle dataset(H5Dcreate2(id(), name.c_str(), file_type(type), space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT));
+  if (!dataset.is_open()) fail(file_name_, "create", "dataset " + child_path(name));
+  return Dataset(std::move(dataset), file_name_, child_path(name));
+}
+
+Dataset Group::create_growing_dataset(const std::string& name, Element type,
+                                      const std::vector<std::size_t>& entry_shape) {
+  std::vector<hsize_t> dims{0}, max_dims{H5S_UNLIMITED}, chunk{1};
+  for (const std::size_t extent : entry_shape) {
+    dims.push_back(extent);
+    max_dims.push_back(extent);
+    chunk.push_back(extent);
+  }
+  if (chunk.size() > 1) {
+    const hsize_t row_bytes = std::accumulate(chunk.begin() + 2, chunk.end(), element_bytes(type), std::multiplies<>());
+    chunk[1] =
+        std::clamp<hsize_t>(max_chunk_bytes / std::max<hsize_t>(row_bytes, 1), 1, std::max<hsize_t>(chunk[1], 1));
+  }
+  const Handle space(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), max_dims.data()));
+  const Handle properties(H5Pcreate(H5P_DATASET_CREATE));
+  // Every chunk is written whole by append, so HDF5 need not write fill values into it first.
+  if (!space.is_open() || !properties.is_open() ||
+      H5Pset_chunk(properties.get(), static_cast<int>(chunk.size()), chunk.data()) < 0 ||
+      H5Pset_fill_time(properties.get(), H5D_FILL_TIME_NEVER) < 0) {
+    fail(file_name_, "prepare", "dataset " + child_path(name));
+  }
+  Handle dataset(
+      H5Dcreate2(id(), name.c_str(), file_type(type), space.get(), H5P_DEFAULT, properties.get(), H5P_DEFAULT));
+  if (!dataset.is_open()) fail(file_name_, "create", "dataset " + child_path(name));
+  return Dataset(std::move(dataset), file_name_, child_path(name));
+}
+
+Dataset Group::create_entry_view(const std::string& name, const Dataset& source, std::size_t index) {
+  const Handle source_space(H5Dget_space(source.id()));
+  const auto source_dims = dataset_dims(source, source_space);
+  if (source_dims.size() < 2 || index >= source_dims[0]) {
+    refuse(file_name_, "dataset " + source.path(), "has no entry " + std::to_string(index) + " to view");
+  }
+  std::vector<hsize_t> start(source_dims.size(), 0), count = source_dims;
+  start[0] = index;
+  count[0] = 1;
+  const std::vector<hsize_t> view_dims(source_dims.begin() + 1, source_dims.end());
+  const Handle view_space(H5Screate_simple(static_cast<int>(view_dims.size()), view_dims.data(), nullptr));
+  const Handle type(H5Dget_type(source.id()));
+  const Handle properties(H5Pcreate(H5P_DATASET_CREATE));
+  // "." names the file holding the view itself, so the mapping survives renaming or moving the file.
+  if (!view_space.is_open() || !type.is_open() || !properties.is_open() ||
+      H5Sselect_hyperslab(source_space.get(), H5S_SELECT_SET, start.data(), nullptr, count.data(), nullptr) < 0 ||
+      H5Pset_virtual(properties.get(), view_space.get(), ".", source.path().c_str(), source_space.get()) < 0) {
+    fail(file_name_, "prepare", "virtual dataset " + child_path(name));
+  }
+  Handle dataset(
+      H5Dcreate2(id(), name.c_str(), type.get(), view_space.get(), H5P_DEFAULT, properties.get(), H5P_DEFAULT));
+  if (!dataset.is_open()) fail(file_name_, "create", "virtual dataset " + child_path(name));
+  return Dataset(std::move(dataset), file_name_, child_path(name));
+}
+
+Dataset Group::dataset(const std::string& name) const {
+  Handle dataset(H5Dopen2(id(), name.c_str(), H5P_DEFAULT));
+  if (!dataset.is_open()) fail(file_name_, "open", "dataset " + child_path(name));
+  return Dataset(std::move(dataset), file_name_, child_path(name));
+}
+
+void Group::remove(const std::string& name) {
+  if (H5Ldelete(id(), name.c_str(), H5P_DEFAULT) < 0) fail(file_name_, "remove", child_path(name));
+}
+
+File File::create(const std::string& file_name) {
+  turn_off_error_printing();
+  Handle file(H5Fcreate(file_name.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT));
+  if (!file.is_open()) fail(file_name, "create", "the HDF5 file");
+  return File(std::move(file), file_name, "/");
+}
+
+File File::open(const std::string& file_name, Mode mode) {
+  turn_off_error_printing();
+  Handle file(H5Fopen(file_name.c_str(), mode == Mode::read_only ? H5F_ACC_RDONLY : H5F_ACC_RDWR, H5P_DEFAULT));
+  if (!file.is_open()) fail(file_name, "open", "as an HDF5 file");
+  return File(std::move(file), file_name, "/");
+}
+
+}  // namespace mpmrom::hdf5

@@ -1,0 +1,78 @@
+#include "simulate.hpp"
+
+#include <chrono>
+#include <filesystem>
+#include <sstream>
+#include <stdexcept>
+
+#include "atomic_file.hpp"
+#include "snapshot.hpp"
+
+namespace mpmrom {
+
+void simulate(const Scene& scene, const std::string& out_path, P2GStrategy strategy,
+              const SimulationCallback& progress) {
+  const auto start = std::chrono::steady_clock::now();
+  FomSolver solver(scene, strategy);
+  SnapshotHeader header;
+  header.scene_name = scene.name;
+  header.scene_text = scene.source_text;
+  for (const auto& [name, value] : scene.parameters) header.parameters.emplace_back(name, value);
+  header.dx = scene.dx;
+  std::vector<real_t> X, mass, volume;
+  solver.reference(X, mass, volume);
+  SnapshotWriter writer(out_path, header, solver.num_particles(), X.data(), mass.data(), volume.data());
+  const int num_frames = scene.num_outputs + 1;
+  for (int k = 0; k < num_frames; ++k) {
+    solver.advance_to(scene.end_time * k / scene.num_outputs);
+    const ParticleFrame f = solver.frame();
+    writer.append(f.time, f.x.data(), f.v.data(), f.F.data(), f.C.data());
+    if (progress) {
+      const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      progress({k + 1, num_frames, solver.time(), solver.steps(), solver.num_particles(), seconds});
+    }
+  }
+  writer.commit();
+}
+
+std::vector<SweepRun> sweep_runs(const Scene& scene) {
+  const auto runs = scene.design.all_runs();
+  if (runs.empty()) throw std::runtime_error("scene " + scene.source_path + " has no [design] to sweep");
+  std::vector<SweepRun> result;
+  for (std::size_t r = 0; r < runs.size(); ++r) {
+    std::string number = std::to_string(r);
+    number.insert(0, number.size() < 3 ? 3 - number.size() : 0, '0');
+    SweepRun run;
+    run.values = runs[r];
+    run.file = "runs/run_" + number + ".h5";
+    for (int t : scene.design.test_runs) run.test = run.test || static_cast<std::size_t>(t) == r;
+    result.push_back(run);
+  }
+  return result;
+}
+
+void sweep(const std::string& scene_path, const std::string& out_dir, P2GStrategy strategy,
+           const std::function<void(std::size_t, std::size_t, const SweepRun&)>& on_run,
+           const SimulationCallback& progress) {
+  const Scene scene = load_scene(scene_path);
+  const auto runs = sweep_runs(scene);
+  std::error_code error;
+  std::filesystem::create_directories(std::filesystem::path(out_dir) / "runs", error);
+  if (error) throw std::runtime_error("cannot create " + out_dir + "/runs: " + error.message());
+  for (std::size_t r = 0; r < runs.size(); ++r) {
+    if (on_run) on_run(r, runs.size(), runs[r]);
+    const Scene run_scene = scene_for_run(scene_path, scene.design.names, runs[r].values);
+    simulate(run_scene, (std::filesystem::path(out_dir) / runs[r].file).string(), strategy, progress);
+  }
+  std::ostringstream csv;
+  csv.precision(17);
+  for (const auto& name : scene.design.names) csv << name << ",";
+  csv << "split,file\n";
+  for (const auto& run : runs) {
+    for (double v : run.values) csv << v << ",";
+    csv << (run.test ? "test" : "train") << "," << run.file << "\n";
+  }
+  write_file_atomically((std::filesystem::path(out_dir) / "design.csv").string(), csv.str());
+}
+
+}  // namespace mpmrom

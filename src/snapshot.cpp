@@ -1,0 +1,336 @@
+#include "snapshot.hpp"
+
+#include <cerrno>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <numeric>
+#include <set>
+#include <sstream>
+#include <stdexcept>
+
+#include "runtime.hpp"
+
+namespace mpmrom {
+namespace {
+
+constexpr hdf5::Element stored_element = hdf5::element_of<real_t>();
+
+[[noreturn]] void bad(const std::string& path, const std::string& problem) {
+  throw std::runtime_error(path + ": " + problem);
+}
+
+std::string number_string(double value, int digits = 6) {
+  std::ostringstream out;
+  out.precision(digits);
+  out << value;
+  return out.str();
+}
+
+std::size_t product(const std::vector<std::size_t>& shape) {
+  return std::accumulate(shape.begin(), shape.end(), std::size_t(1), std::multiplies<>());
+}
+
+std::string shape_string(const std::vector<std::size_t>& shape) {
+  std::string text = "(";
+  for (std::size_t d = 0; d < shape.size(); ++d) text += (d > 0 ? ", " : "") + std::to_string(shape[d]);
+  return text + ")";
+}
+
+// The row-major multi-index of flat element i, e.g. "(1, 17, 2)" for an array of shape (frames, points, 3).
+std::string index_string(std::size_t i, const std::vector<std::size_t>& shape) {
+  std::vector<std::size_t> index(shape.size());
+  for (std::size_t d = shape.size(); d-- > 0;) {
+    index[d] = i % shape[d];
+    i /= shape[d];
+  }
+  return shape_string(index);
+}
+
+template <class T>
+void require_finite(const std::string& path, const std::string& what, const T* values,
+                    const std::vector<std::size_t>& shape) {
+  const std::size_t count = product(shape);
+  for (std::size_t i = 0; i < count; ++i) {
+    if (!std::isfinite(values[i])) {
+      bad(path, what + " holds a non-finite value (" + number_string(values[i]) + ") at " + index_string(i, shape));
+    }
+  }
+}
+
+template <class T>
+void require_positive(const std::string& path, const std::string& what, const T* values, std::size_t count) {
+  for (std::size_t i = 0; i < count; ++i) {
+    if (!(values[i] > 0)) {
+      bad(path, what + " of point " + std::to_string(i) + " is not positive (" + number_string(values[i]) + ")");
+    }
+  }
+}
+
+// Checks everything the constructor is given before any file is created; returns num_points.
+std::size_t validated_num_points(const std::string& path, const SnapshotHeader& header, std::size_t num_points,
+                                 const real_t* X, const real_t* mass, const real_t* volume) {
+  if (xdmf_path_for(path) == path) bad(path, "a snapshot cannot have the extension .xmf of its XDMF side file");
+  if (num_points == 0) bad(path, "a snapshot needs at least one material point");
+  if (!std::isfinite(header.dx) || header.dx <= 0) {
+    bad(path, "grid spacing dx = " + number_string(header.dx) + " is not positive");
+  }
+  std::set<std::string> names;
+  for (const auto& [name, value] : header.parameters) {
+    if (name.empty() || !names.insert(name).second) {
+      bad(path, "parameter names must be non-empty and unique ('" + name + "')");
+    }
+    if (!std::isfinite(value)) bad(path, "parameter '" + name + "' is not finite");
+  }
+  require_finite(path, "X", X, {num_points, 3});
+  require_finite(path, "mass", mass, {num_points});
+  require_finite(path, "volume", volume, {num_points});
+  require_positive(path, "mass", mass, num_points);
+  require_positive(path, "volume", volume, num_points);
+  return num_points;
+}
+
+std::string xml_escaped(const std::string& text) {
+  std::string escaped;
+  for (const char c : text) {
+    switch (c) {
+      case '&':
+        escaped += "&amp;";
+        break;
+      case '<':
+        escaped += "&lt;";
+        break;
+      case '>':
+        escaped += "&gt;";
+        break;
+      case '"':
+        escaped += "&quot;";
+        break;
+      default:
+        escaped += c;
+    }
+  }
+  return escaped;
+}
+
+// XDMF 3 for ParaView: a temporal collection of point clouds, the HDF5 file named relative to the side file so that
+// the pair can be moved together. ParaView's Xdmf3 readers cannot read HyperSlab DataItems (they size and type an array
+// before reading it), so each frame's arrays are plain virtual datasets /xdmf/<array>/<frame>, which every XDMF
+// reader reads; /xdmf/vertices gives the Xdmf3 readers the one-vertex cells they need to draw the points.
+std::string xdmf_text(const std::string& h5_name, const std::string& scene_name, std::size_t num_points,
+                      const std::vector<double>& times) {
+  const std::string n = std::to_string(num_points), file = xml_escaped(h5_name);
+  const std::string real = "NumberType=\"Float\" Precision=\"" + std::to_string(sizeof(real_t)) + "\"";
+  const auto item = [&](const std::string& dimensions, const std::string& type, const std::string& dataset) {
+    return "<DataItem Dimensions=\"" + dimensions + "\" " + type + " Format=\"HDF\">" + file + ":" + dataset +
+           "</DataItem>";
+  };
+  std::ostringstream out;
+  out << "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n  <Domain>\n"
+      << "    <Grid Name=\"" << xml_escaped(scene_name) << "\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
+  for (std::size_t frame = 0; frame < times.size(); ++frame) {
+    const std::string k = std::to_string(frame);
+    out << "      <Grid Name=\"frame " << frame << "\" GridType=\"Uniform\">\n"
+        << "        <Time Value=\"" << number_string(times[frame], 17) << "\"/>\n"
+        << "        <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"" << n << "\" NodesPerElement=\"1\">"
+        << item(n, "NumberType=\"Int\" Precision=\"8\"", "/xdmf/vertices") << "</Topology>\n"
+        << "        <Geometry GeometryType=\"XYZ\">" << item(n + " 3", real, "/xdmf/x/" + k) << "</Geometry>\n"
+        << "        <Attribute Name=\"velocity\" AttributeType=\"Vector\" Center=\"Node\">"
+        << item(n + " 3", real, "/xdmf/v/" + k) << "</Attribute>\n"
+        << "        <Attribute Name=\"F\" AttributeType=\"Tensor\" Center=\"Node\">"
+        << item(n + " 3 3", real, "/xdmf/F/" + k) << "</Attribute>\n"
+        << "        <Attribute Name=\"X\" AttributeType=\"Vector\" Center=\"Node\">"
+        << item(n + " 3", real, "/reference/X") << "</Attribute>\n"
+        << "        <Attribute Name=\"mass\" AttributeType=\"Scalar\" Center=\"Node\">"
+        << item(n, real, "/reference/mass") << "</Attribute>\n"
+        << "      </Grid>\n";
+  }
+  out << "    </Grid>\n  </Domain>\n</Xdmf>\n";
+  return out.str();
+}
+
+// The datasets xdmf_text refers to: the vertex list and, per frame k, views /xdmf/x/k, /xdmf/v/k and /xdmf/F/k.
+void write_xdmf_views(hdf5::File& file, std::size_t num_points, std::size_t num_frames,
+                      const std::vector<const hdf5::Dataset*>& sources) {
+  hdf5::Group xdmf = file.create_group("xdmf");
+  std::vector<std::int64_t> vertices(num_points);
+  std::iota(vertices.begin(), vertices.end(), std::int64_t(0));
+  xdmf.create_dataset("vertices", hdf5::Element::int64, {num_points}).write(vertices.data());
+  for (const hdf5::Dataset* source : sources) {
+    hdf5::Group views = xdmf.create_group(source->path().substr(1));  // "/x" -> "x"
+    for (std::size_t frame = 0; frame < num_frames; ++frame) {
+      views.create_entry_view(std::to_string(frame), *source, frame);
+    }
+  }
+}
+
+std::vector<double> read_checked(const std::string& path, const hdf5::Dataset& dataset,
+                                 const std::vector<std::size_t>& expected_shape, const std::string& expectation) {
+  const auto shape = dataset.shape();
+  if (shape != expected_shape) {
+    bad(path, "dataset " + dataset.path() + " has shape " + shape_string(shape) + ", expected " +
+                  shape_string(expected_shape) + " " + expectation);
+  }
+  auto values = dataset.read();
+  require_finite(path, "dataset " + dataset.path(), values.data(), shape);
+  return values;
+}
+
+}  // namespace
+
+std::string xdmf_path_for(const std::string& snapshot_path) {
+  return std::filesystem::path(snapshot_path).replace_extension(".xmf").string();
+}
+
+SnapshotWriter::SnapshotWriter(const std::string& path, const SnapshotHeader& header, std::size_t num_points,
+                               const real_t* X, const real_t* mass, const real_t* volume)
+    : path_(path),
+      scene_name_(header.scene_name),
+      num_points_(validated_num_points(path, header, num_points, X, mass, volume)),
+      h5_(path),
+      xdmf_(xdmf_path_for(path)),
+      file_(hdf5::File::create(h5_.temporary_path())),
+      time_(file_.create_growing_dataset("time", hdf5::Element::float64, {})),
+      x_(file_.create_growing_dataset("x", stored_element, {num_points, 3})),
+      v_(file_.create_growing_dataset("v", stored_element, {num_points, 3})),
+      F_(file_.create_growing_dataset("F", stored_element, {num_points, 3, 3})),
+      C_(file_.create_growing_dataset("C", stored_element, {num_points, 3, 3})) {
+  file_.set_string_attribute("format", snapshot_format);
+  file_.set_integer_attribute("format_version", snapshot_format_version);
+  file_.set_string_attribute("precision", MPMROM_PRECISION_NAME);
+  file_.set_string_attribute("mpmrom_version", MPMROM_VERSION_STRING);
+  file_.set_string_attribute("git_commit", git_commit());
+  file_.set_string_attribute("scene_name", header.scene_name);
+  file_.set_string_attribute("scene", header.scene_text);
+  file_.set_double_attribute("dx", header.dx);
+  hdf5::Group parameters = file_.create_group("parameters");
+  std::vector<std::string> names;
+  for (const auto& [name, value] : header.parameters) {
+    parameters.set_double_attribute(name, value);
+    names.push_back(name);
+  }
+  // Attributes of a group have no guaranteed order, so the order lives in its own list.
+  file_.set_string_list_attribute("parameter_names", names);
+  hdf5::Group reference = file_.create_group("reference");
+  reference.create_dataset("X", stored_element, {num_points, 3}).write(X);
+  reference.create_dataset("mass", stored_element, {num_points}).write(mass);
+  reference.create_dataset("volume", stored_element, {num_points}).write(volume);
+}
+
+void SnapshotWriter::require_open(const char* action) const {
+  if (state_ == State::committed) throw std::logic_error(path_ + ": cannot " + action + " a committed snapshot");
+  if (state_ == State::failed) {
+    throw std::logic_error(path_ + ": cannot " + action + " a snapshot after a failed write");
+  }
+}
+
+void SnapshotWriter::append(double time, const real_t* x, const real_t* v, const real_t* F, const real_t* C) {
+  require_open("append to");
+  const std::string frame = "frame " + std::to_string(times_.size()) + " (t = " + number_string(time) + ")";
+  if (!std::isfinite(time)) bad(path_, frame + ": the time is not finite");
+  if (!times_.empty() && time <= times_.back()) {
+    bad(path_, frame + " is not after the previous frame (t = " + number_string(times_.back()) + ")");
+  }
+  require_finite(path_, frame + ": x", x, {num_points_, 3});
+  require_finite(path_, frame + ": v", v, {num_points_, 3});
+  require_finite(path_, frame + ": F", F, {num_points_, 3, 3});
+  require_finite(path_, frame + ": C", C, {num_points_, 3, 3});
+  state_ = State::failed;  // until every dataset has its entry
+  time_.append(&time);
+  x_.append(x);
+  v_.append(v);
+  F_.append(F);
+  C_.append(C);
+  times_.push_back(time);
+  state_ = State::open;
+}
+
+void SnapshotWriter::commit() {
+  require_open("commit");
+  state_ = State::failed;
+  write_xdmf_views(file_, num_points_, times_.size(), {&x_, &v_, &F_});
+  file_.set_integer_attribute("complete", 1);
+  // Every object closed first, so that closing the file really closes it and reports a failed final flush.
+  for (hdf5::Dataset* dataset : {&time_, &x_, &v_, &F_, &C_}) dataset->close();
+  file_.close();
+  std::ofstream xdmf(xdmf_.temporary_path(), std::ios::trunc);
+  xdmf << xdmf_text(std::filesystem::path(path_).filename().string(), scene_name_, num_points_, times_);
+  xdmf.close();
+  if (!xdmf) bad(xdmf_.temporary_path(), std::string("cannot write the XDMF side file: ") + std::strerror(errno));
+  h5_.commit();
+  xdmf_.commit();
+  state_ = State::committed;
+}
+
+Snapshot read_snapshot(const std::string& path) {
+  std::error_code error;
+  if (!std::filesystem::is_regular_file(path, error)) bad(path, "no such snapshot file");
+  const hdf5::File file = hdf5::File::open(path);
+  if (!file.has_attribute("format")) bad(path, "not an mpmrom snapshot (no 'format' attribute)");
+  const std::string format = file.string_attribute("format");
+  if (format != snapshot_format) bad(path, "not an mpmrom snapshot (format is '" + format + "')");
+  const std::int64_t version = file.integer_attribute("format_version");
+  if (version != snapshot_format_version) {
+    bad(path, "snapshot format version " + std::to_string(version) + " is not supported (this build reads version " +
+                  std::to_string(snapshot_format_version) + ")");
+  }
+  if (!file.has_attribute("complete") || file.integer_attribute("complete") != 1) {
+    bad(path, "incomplete snapshot (the run did not finish)");
+  }
+
+  Snapshot snapshot;
+  snapshot.precision = file.string_attribute("precision");
+  if (snapshot.precision != "float" && snapshot.precision != "double") {
+    bad(path, "precision is '" + snapshot.precision + "', expected 'float' or 'double'");
+  }
+  snapshot.mpmrom_version = file.string_attribute("mpmrom_version");
+  snapshot.git_commit = file.string_attribute("git_commit");
+  SnapshotHeader& header = snapshot.header;
+  header.scene_name = file.string_attribute("scene_name");
+  header.scene_text = file.string_attribute("scene");
+  header.dx = file.double_attribute("dx");
+  if (!std::isfinite(header.dx) || header.dx <= 0) {
+    bad(path, "grid spacing dx = " + number_string(header.dx) + " is not positive");
+  }
+  const hdf5::Group parameters = file.group("parameters");
+  std::set<std::string> seen;
+  for (const std::string& name : file.string_list_attribute("parameter_names")) {
+    if (!seen.insert(name).second) bad(path, "parameter '" + name + "' is listed twice");
+    const double value = parameters.double_attribute(name);
+    if (!std::isfinite(value)) bad(path, "parameter '" + name + "' is not finite");
+    header.parameters.emplace_back(name, value);
+  }
+
+  const hdf5::Group reference = file.group("reference");
+  const auto X_shape = reference.dataset("X").shape();
+  if (X_shape.size() != 2 || X_shape[1] != 3 || X_shape[0] == 0) {
+    bad(path, "dataset /reference/X has shape " + shape_string(X_shape) + ", expected (points, 3) with points > 0");
+  }
+  const auto time_shape = file.dataset("time").shape();
+  if (time_shape.size() != 1) bad(path, "dataset /time has shape " + shape_string(time_shape) + ", expected (frames)");
+  const std::size_t n = X_shape[0], frames = time_shape[0];
+  snapshot.num_points = n;
+  snapshot.num_frames = frames;
+  const std::string expectation = "for " + std::to_string(n) + " points and " + std::to_string(frames) + " frames";
+  snapshot.X = read_checked(path, reference.dataset("X"), {n, 3}, expectation);
+  snapshot.mass = read_checked(path, reference.dataset("mass"), {n}, expectation);
+  snapshot.volume = read_checked(path, reference.dataset("volume"), {n}, expectation);
+  snapshot.time = read_checked(path, file.dataset("time"), {frames}, expectation);
+  snapshot.x = read_checked(path, file.dataset("x"), {frames, n, 3}, expectation);
+  snapshot.v = read_checked(path, file.dataset("v"), {frames, n, 3}, expectation);
+  snapshot.F = read_checked(path, file.dataset("F"), {frames, n, 3, 3}, expectation);
+  snapshot.C = read_checked(path, file.dataset("C"), {frames, n, 3, 3}, expectation);
+  require_positive(path, "/reference/mass", snapshot.mass.data(), n);
+  require_positive(path, "/reference/volume", snapshot.volume.data(), n);
+  for (std::size_t frame = 1; frame < frames; ++frame) {
+    if (!(snapshot.time[frame] > snapshot.time[frame - 1])) {
+      bad(path, "time of frame " + std::to_string(frame) + " is not after the previous frame's");
+    }
+  }
+  return snapshot;
+}
+
+}  // namespace mpmrom

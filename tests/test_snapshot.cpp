@@ -1,0 +1,335 @@
+// Snapshot files: a synthetic run written and read back exactly, its XDMF side file, nothing left behind by a writer
+// that did not commit, and a refusal naming the problem for every kind of bad file. Host only.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <random>
+#include <sstream>
+
+#include "hdf5_file.hpp"
+#include "snapshot.hpp"
+
+namespace mpmrom::test {
+namespace {
+
+namespace fs = std::filesystem;
+
+// A fresh directory per test under the system's temporary directory, removed afterwards.
+class SnapshotTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const std::string test = ::testing::UnitTest::GetInstance()->current_test_info()->name();
+    dir_ = fs::temp_directory_path() / ("mpmrom-test-snapshot-" + std::to_string(::getpid()) + "-" + test);
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  std::string path(const std::string& name) const { return (dir_ / name).string(); }
+
+  fs::path dir_;
+};
+
+// A small run whose arrays hold distinct random values, each exactly representable in real_t.
+struct SyntheticRun {
+  std::size_t n = 5;
+  SnapshotHeader header;
+  std::vector<real_t> X, mass, volume;
+  std::vector<double> time;
+  std::vector<std::vector<real_t>> x, v, F, C;  // one array per frame
+};
+
+std::vector<real_t> random_values(std::size_t count, double lo, double hi, std::mt19937_64& rng) {
+  std::uniform_real_distribution<double> dist(lo, hi);
+  std::vector<real_t> values(count);
+  for (auto& value : values) value = static_cast<real_t>(dist(rng));
+  return values;
+}
+
+SyntheticRun synthetic_run(std::size_t frames = 3) {
+  SyntheticRun run;
+  // Markup characters in the name check the XDMF escaping; the parameters are deliberately not in alphabetical order.
+  run.header.scene_name = "poke <cylinder> & \"friends\"";
+  run.header.scene_text = "# a scene\n[material]\nyoungs_modulus = 1.0e6  # Pa\nname = \"jelly ν\"\n\n";
+  run.header.parameters = {{"youngs_modulus", 1.0e6}, {"poisson_ratio", 0.3}, {"density", 1000.0}, {"a_last", -2.5}};
+  run.header.dx = 0.0125;
+  std::mt19937_64 rng(42);
+  run.X = random_values(3 * run.n, -1, 1, rng);
+  run.mass = random_values(run.n, 0.1, 2, rng);
+  run.volume = random_values(run.n, 1e-6, 1e-5, rng);
+  for (std::size_t frame = 0; frame < frames; ++frame) {
+    run.time.push_back(0.01 * static_cast<double>(frame) + 1e-17);  // not representable in float: time is double
+    run.x.push_back(random_values(3 * run.n, -1, 1, rng));
+    run.v.push_back(random_values(3 * run.n, -5, 5, rng));
+    run.F.push_back(random_values(9 * run.n, 0.5, 1.5, rng));
+    run.C.push_back(random_values(9 * run.n, -10, 10, rng));
+  }
+  return run;
+}
+
+void write_run(const std::string& path, const SyntheticRun& run) {
+  SnapshotWriter writer(path, run.header, run.n, run.X.data(), run.mass.data(), run.volume.data());
+  for (std::size_t frame = 0; frame < run.time.size(); ++frame) {
+    writer.append(run.time[frame], run.x[frame].data(), run.v[frame].data(), run.F[frame].data(), run.C[frame].data());
+  }
+  EXPECT_EQ(writer.num_frames(), run.time.size());
+  writer.commit();
+}
+
+std::string file_text(const std::string& path) {
+  std::ifstream in(path);
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+std::size_t occurrences(const std::string& text, const std::string& pattern) {
+  std::size_t count = 0;
+  for (auto at = text.find(pattern); at != std::string::npos; at = text.find(pattern, at + pattern.size())) ++count;
+  return count;
+}
+
+// read_snapshot must refuse the file with one line that names the file and contains `problem`.
+void expect_rejected(const std::string& path, const std::string& problem) {
+  try {
+    read_snapshot(path);
+    ADD_FAILURE() << "read_snapshot accepted " << path << " (expected: " << problem << ")";
+  } catch (const std::runtime_error& error) {
+    const std::string message = error.what();
+    EXPECT_NE(message.find(problem), std::string::npos) << "message: " << message << "\nexpected: " << problem;
+    EXPECT_NE(message.find(path), std::string::npos) << "message does not name the file: " << message;
+    EXPECT_EQ(message.find('\n'), std::string::npos) << "message is not one line: " << message;
+  }
+}
+
+TEST_F(SnapshotTest, RoundTripPreservesEveryValueAndTheHeader) {
+  const auto run = synthetic_run();
+  write_run(path("run.h5"), run);
+  const Snapshot read = read_snapshot(path("run.h5"));
+
+  EXPECT_EQ(read.precision, MPMROM_PRECISION_NAME);
+  EXPECT_EQ(read.mpmrom_version, MPMROM_VERSION_STRING);
+  EXPECT_FALSE(read.git_commit.empty());
+  EXPECT_EQ(read.header.scene_name, run.header.scene_name);
+  EXPECT_EQ(read.header.scene_text, run.header.scene_text);
+  EXPECT_EQ(read.header.parameters, run.header.parameters);  // names, values and order
+  EXPECT_EQ(read.header.dx, run.header.dx);
+  ASSERT_EQ(read.num_points, run.n);
+  ASSERT_EQ(read.num_frames, run.time.size());
+  EXPECT_EQ(read.time, run.time);
+  const auto expect_exact = [](const std::vector<double>& actual, const std::vector<real_t>& expected,
+                               std::size_t offset, const char* what) {
+    for (std::size_t i = 0; i < expected.size(); ++i) {
+      ASSERT_EQ(actual.at(offset + i), static_cast<double>(expected[i])) << what << " element " << offset + i;
+    }
+  };
+  expect_exact(read.X, run.X, 0, "X");
+  expect_exact(read.mass, run.mass, 0, "mass");
+  expect_exact(read.volume, run.volume, 0, "volume");
+  ASSERT_EQ(read.x.size(), run.time.size() * 3 * run.n);
+  ASSERT_EQ(read.F.size(), run.time.size() * 9 * run.n);
+  for (std::size_t frame = 0; frame < run.time.size(); ++frame) {
+    expect_exact(read.x, run.x[frame], frame * 3 * run.n, "x");
+    expect_exact(read.v, run.v[frame], frame * 3 * run.n, "v");
+    expect_exact(read.F, run.F[frame], frame * 9 * run.n, "F");
+    expect_exact(read.C, run.C[frame], frame * 9 * run.n, "C");
+  }
+}
+
+TEST_F(SnapshotTest, RoundTripOfARunWithoutParametersOrFrames) {
+  auto run = synthetic_run(0);
+  run.header.parameters.clear();
+  write_run(path("empty.h5"), run);
+  const Snapshot read = read_snapshot(path("empty.h5"));
+  EXPECT_TRUE(read.header.parameters.empty());
+  EXPECT_EQ(read.num_frames, 0u);
+  EXPECT_TRUE(read.x.empty());
+}
+
+TEST_F(SnapshotTest, XdmfSideFileHasOneGridPerFrameAndNamesTheH5Relatively) {
+  const auto run = synthetic_run();
+  write_run(path("run.h5"), run);
+  ASSERT_EQ(xdmf_path_for(path("run.h5")), path("run.xmf"));
+  ASSERT_TRUE(fs::exists(path("run.xmf")));
+  const std::string xmf = file_text(path("run.xmf"));
+
+  EXPECT_EQ(xmf.rfind("<?xml", 0), 0u);
+  EXPECT_NE(xmf.find("<Xdmf Version=\"3.0\">"), std::string::npos);
+  EXPECT_NE(xmf.find("CollectionType=\"Temporal\""), std::string::npos);
+  EXPECT_NE(xmf.find("poke &lt;cylinder&gt; &amp; &quot;friends&quot;"), std::string::npos);
+  EXPECT_EQ(occurrences(xmf, "GridType=\"Uniform\""), run.time.size());
+  EXPECT_EQ(occurrences(xmf, "<Time Value="), run.time.size());
+  EXPECT_EQ(occurrences(xmf, "<Grid "), run.time.size() + 1);
+  EXPECT_EQ(occurrences(xmf, "</Grid>"), run.time.size() + 1);
+  EXPECT_EQ(occurrences(xmf, "<DataItem"), occurrences(xmf, "</DataItem>"));
+  const std::string real = "NumberType=\"Float\" Precision=\"" + std::to_string(sizeof(real_t)) + "\"";
+  EXPECT_NE(xmf.find("<Geometry GeometryType=\"XYZ\"><DataItem Dimensions=\"5 3\" " + real +
+                     " Format=\"HDF\">run.h5:/xdmf/x/2</DataItem></Geometry>"),
+            std::string::npos);
+  std::vector<double> times;  // printed with enough digits to read back exactly
+  for (auto at = xmf.find("<Time Value=\""); at != std::string::npos; at = xmf.find("<Time Value=\"", at + 1)) {
+    times.push_back(std::stod(xmf.substr(at + 13)));
+  }
+  EXPECT_EQ(times, run.time);
+  EXPECT_EQ(occurrences(xmf, ">run.h5:/xdmf/vertices</DataItem>"), run.time.size());
+  EXPECT_NE(xmf.find("Dimensions=\"5 3 3\" " + real + " Format=\"HDF\">run.h5:/xdmf/F/1</DataItem>"),
+            std::string::npos);
+  EXPECT_NE(xmf.find(">run.h5:/reference/mass</DataItem>"), std::string::npos);
+  EXPECT_EQ(xmf.find(dir_.string()), std::string::npos) << "the side file names the HDF5 file by an absolute path";
+  EXPECT_EQ(xmf.substr(xmf.size() - 8), "</Xdmf>\n");
+}
+
+TEST_F(SnapshotTest, XdmfViewsShowEachFrameOfTheGrowingDatasets) {
+  const auto run = synthetic_run();
+  write_run(path("run.h5"), run);
+  const auto file = hdf5::File::open(path("run.h5"));
+  const auto xdmf = file.group("xdmf");
+  const auto vertices = xdmf.dataset("vertices").read();
+  ASSERT_EQ(vertices.size(), run.n);
+  for (std::size_t i = 0; i < run.n; ++i) EXPECT_EQ(vertices[i], static_cast<double>(i));
+  for (std::size_t frame = 0; frame < run.time.size(); ++frame) {
+    const auto x = xdmf.group("x").dataset(std::to_string(frame));
+    const auto F = xdmf.group("F").dataset(std::to_string(frame));
+    EXPECT_EQ(x.shape(), (std::vector<std::size_t>{run.n, 3}));
+    EXPECT_EQ(F.shape(), (std::vector<std::size_t>{run.n, 3, 3}));
+    EXPECT_EQ(x.read(), std::vector<double>(run.x[frame].begin(), run.x[frame].end()));
+    EXPECT_EQ(xdmf.group("v").dataset(std::to_string(frame)).read(),
+              std::vector<double>(run.v[frame].begin(), run.v[frame].end()));
+    EXPECT_EQ(F.read(), std::vector<double>(run.F[frame].begin(), run.F[frame].end()));
+  }
+}
+
+TEST_F(SnapshotTest, WriterDestroyedWithoutCommitLeavesNothingBehind) {
+  const auto run = synthetic_run();
+  {
+    SnapshotWriter writer(path("run.h5"), run.header, run.n, run.X.data(), run.mass.data(), run.volume.data());
+    writer.append(run.time[0], run.x[0].data(), run.v[0].data(), run.F[0].data(), run.C[0].data());
+    EXPECT_FALSE(fs::exists(path("run.h5")));
+  }
+  EXPECT_TRUE(fs::is_empty(dir_)) << "a file is left in " << dir_;
+}
+
+TEST_F(SnapshotTest, WriterRefusesANonFiniteFrameAndLeavesNothingBehind) {
+  auto run = synthetic_run();
+  run.x[1][7] = std::numeric_limits<real_t>::quiet_NaN();
+  try {
+    write_run(path("run.h5"), run);
+    ADD_FAILURE() << "the writer accepted a NaN";
+  } catch (const std::runtime_error& error) {
+    const std::string message = error.what();
+    EXPECT_NE(message.find("frame 1"), std::string::npos) << message;
+    EXPECT_NE(message.find("x holds a non-finite value"), std::string::npos) << message;
+  }
+  EXPECT_TRUE(fs::is_empty(dir_)) << "a file is left in " << dir_;
+}
+
+TEST_F(SnapshotTest, WriterRefusesATimeNotAfterThePreviousFrame) {
+  auto run = synthetic_run();
+  run.time[2] = run.time[1];
+  try {
+    write_run(path("run.h5"), run);
+    ADD_FAILURE() << "the writer accepted a repeated time";
+  } catch (const std::runtime_error& error) {
+    EXPECT_NE(std::string(error.what()).find("frame 2 (t = 0.01) is not after the previous frame"), std::string::npos)
+        << error.what();
+  }
+  EXPECT_TRUE(fs::is_empty(dir_)) << "a file is left in " << dir_;
+}
+
+TEST_F(SnapshotTest, CommitReplacesAnEarlierSnapshotOfTheSameName) {
+  write_run(path("run.h5"), synthetic_run(3));
+  write_run(path("run.h5"), synthetic_run(2));
+  EXPECT_EQ(read_snapshot(path("run.h5")).num_frames, 2u);
+  EXPECT_EQ(occurrences(file_text(path("run.xmf")), "GridType=\"Uniform\""), 2u);
+}
+
+TEST_F(SnapshotTest, RejectsAMissingFile) { expect_rejected(path("missing.h5"), "no such snapshot file"); }
+
+TEST_F(SnapshotTest, RejectsAFileThatIsNotHdf5) {
+  std::ofstream(path("text.h5")) << "this is not an HDF5 file\n";
+  expect_rejected(path("text.h5"), "cannot open as an HDF5 file");
+}
+
+TEST_F(SnapshotTest, RejectsATruncatedFile) {
+  write_run(path("run.h5"), synthetic_run());
+  fs::resize_file(path("run.h5"), fs::file_size(path("run.h5")) / 2);
+  expect_rejected(path("run.h5"), "truncated");
+}
+
+TEST_F(SnapshotTest, RejectsAnHdf5FileOfAnotherKind) {
+  {
+    auto file = hdf5::File::create(path("other.h5"));
+    const std::vector<double> values{1, 2, 3};
+    file.create_dataset("values", hdf5::Element::float64, {3}).write(values.data());
+  }
+  expect_rejected(path("other.h5"), "not an mpmrom snapshot (no 'format' attribute)");
+}
+
+TEST_F(SnapshotTest, RejectsAnotherFormatVersion) {
+  write_run(path("run.h5"), synthetic_run());
+  hdf5::File::open(path("run.h5"), hdf5::File::Mode::read_write).set_integer_attribute("format_version", 2);
+  expect_rejected(path("run.h5"), "snapshot format version 2 is not supported");
+}
+
+TEST_F(SnapshotTest, RejectsAnIncompleteFile) {
+  write_run(path("run.h5"), synthetic_run());
+  hdf5::File::open(path("run.h5"), hdf5::File::Mode::read_write).remove_attribute("complete");
+  expect_rejected(path("run.h5"), "incomplete snapshot (the run did not finish)");
+}
+
+TEST_F(SnapshotTest, RejectsPositionsOfTheWrongNumberOfPoints) {
+  const auto run = synthetic_run();
+  write_run(path("run.h5"), run);
+  {
+    auto file = hdf5::File::open(path("run.h5"), hdf5::File::Mode::read_write);
+    file.remove("x");
+    auto x = file.create_growing_dataset("x", hdf5::element_of<real_t>(), {run.n + 1, 3});
+    const std::vector<real_t> frame(3 * (run.n + 1), real_t(0.5));
+    for (std::size_t i = 0; i < run.time.size(); ++i) x.append(frame.data());
+  }
+  expect_rejected(path("run.h5"), "dataset /x has shape (3, 6, 3), expected (3, 5, 3) for 5 points and 3 frames");
+}
+
+TEST_F(SnapshotTest, RejectsANanInPositions) {
+  write_run(path("run.h5"), synthetic_run());
+  {
+    auto x = hdf5::File::open(path("run.h5"), hdf5::File::Mode::read_write).dataset("x");
+    auto values = x.read();
+    values[3 * 5 + 3 * 4 + 1] = std::numeric_limits<double>::quiet_NaN();  // frame 1, point 4, y
+    x.write(values.data());
+  }
+  expect_rejected(path("run.h5"), "dataset /x holds a non-finite value (nan) at (1, 4, 1)");
+}
+
+TEST_F(SnapshotTest, Hdf5ErrorsNameTheFileAndTheObject) {
+  write_run(path("run.h5"), synthetic_run());
+  const auto file = hdf5::File::open(path("run.h5"));
+  try {
+    file.group("reference").dataset("nothing");
+    ADD_FAILURE() << "opened a dataset that does not exist";
+  } catch (const std::runtime_error& error) {
+    const std::string message = error.what();
+    EXPECT_EQ(message.rfind(path("run.h5") + ": cannot open dataset /reference/nothing: ", 0), 0u) << message;
+    EXPECT_EQ(message.find('\n'), std::string::npos) << message;
+  }
+  try {
+    file.integer_attribute("scene");
+    ADD_FAILURE() << "read a string attribute as an integer";
+  } catch (const std::runtime_error& error) {
+    EXPECT_EQ(std::string(error.what()), path("run.h5") + ": attribute 'scene' of / is not an integer");
+  }
+}
+
+TEST_F(SnapshotTest, Hdf5StringListAttributesRoundTrip) {
+  auto file = hdf5::File::create(path("lists.h5"));
+  const std::vector<std::string> names{"b", "", "a ν", "c"};
+  file.set_string_list_attribute("names", names);
+  file.set_string_list_attribute("none", {});
+  EXPECT_EQ(file.string_list_attribute("names"), names);
+  EXPECT_TRUE(file.string_list_attribute("none").empty());
+}
+
+}  // namespace
+}  // namespace mpmrom::test

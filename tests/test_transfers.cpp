@@ -1,0 +1,210 @@
+// P2G then G2P: conservation of mass, linear and angular momentum, and exact reproduction of affine velocity fields,
+// for both accumulation strategies, on every backend.
+#include <cmath>
+
+#include "backends.hpp"
+#include "kernels/g2p.hpp"
+#include "kernels/grid_update.hpp"
+#include "kernels/p2g.hpp"
+
+namespace mpmrom::test {
+namespace {
+
+struct Totals {
+  double mass = 0;
+  double momentum[3] = {0, 0, 0};
+  double angular[3] = {0, 0, 0};
+};
+
+// Particle totals. With APIC the affine part carries angular momentum m (dx^2 / 4) eps_abc C_cb (Jiang et al. 2015),
+// since sum_i w_ip (x_i - x_p)(x_i - x_p)^T = (dx^2 / 4) I for quadratic B-splines.
+template <class Host>
+Totals particle_totals(const Host& x, const Host& v, const Kokkos::View<real_t* [3][3], Kokkos::HostSpace>& C,
+                       const Kokkos::View<real_t*, Kokkos::HostSpace>& mass, double dx, bool apic) {
+  Totals t;
+  const double inertia = dx * dx / 4;
+  for (std::size_t p = 0; p < mass.extent(0); ++p) {
+    const double m = mass(p);
+    t.mass += m;
+    for (int a = 0; a < 3; ++a) t.momentum[a] += m * v(p, a);
+    const int b[3] = {1, 2, 0}, c[3] = {2, 0, 1};
+    for (int a = 0; a < 3; ++a) {
+      t.angular[a] += m * (x(p, b[a]) * v(p, c[a]) - x(p, c[a]) * v(p, b[a]));
+      if (apic) t.angular[a] += m * inertia * (C(p, c[a], b[a]) - C(p, b[a], c[a]));
+    }
+  }
+  return t;
+}
+
+// Grid totals; `velocity` says whether columns 1-3 hold velocities (after the update) or momenta (after P2G).
+Totals grid_totals(const Kokkos::View<real_t* [4], Kokkos::HostSpace>& nodes, const GridGeometry<real_t>& grid,
+                   bool velocity) {
+  Totals t;
+  for (int node = 0; node < grid.num_nodes(); ++node) {
+    const double m = nodes(node, 0);
+    if (m <= 0) continue;
+    int i, j, k;
+    grid.indices(node, i, j, k);
+    const auto x = grid.position(i, j, k);
+    double mv[3];
+    for (int d = 0; d < 3; ++d) mv[d] = velocity ? m * nodes(node, d + 1) : double(nodes(node, d + 1));
+    t.mass += m;
+    for (int d = 0; d < 3; ++d) t.momentum[d] += mv[d];
+    t.angular[0] += x[1] * mv[2] - x[2] * mv[1];
+    t.angular[1] += x[2] * mv[0] - x[0] * mv[2];
+    t.angular[2] += x[0] * mv[1] - x[1] * mv[0];
+  }
+  return t;
+}
+
+void expect_totals_near(const Totals& a, const Totals& b, double tol_mass, double tol_momentum, double tol_angular,
+                        bool check_angular, const char* what) {
+  EXPECT_NEAR(a.mass, b.mass, tol_mass) << what;
+  for (int d = 0; d < 3; ++d) {
+    EXPECT_NEAR(a.momentum[d], b.momentum[d], tol_momentum) << what << ", momentum " << d;
+    if (check_angular) EXPECT_NEAR(a.angular[d], b.angular[d], tol_angular) << what << ", angular momentum " << d;
+  }
+}
+
+template <class ExecutionSpace>
+struct TransferSetup {
+  using MemorySpace = typename ExecutionSpace::memory_space;
+  GridGeometry<real_t> grid;
+  ParticleViews<MemorySpace> particles;
+  GridNodeView<MemorySpace> nodes;
+  Kokkos::View<int, MemorySpace> outside{"outside"};
+
+  // n particles scattered in the middle of a 16^3-node grid, away from the wall zones; velocities v = A x + b + noise.
+  TransferSetup(int n, const double A[3][3], const double b[3], double noise, unsigned seed) {
+    grid.dx = real_t(0.125);
+    grid.inv_dx = real_t(8);
+    for (int d = 0; d < 3; ++d) {
+      grid.origin[d] = real_t(-1);
+      grid.dims[d] = 17;
+    }
+    particles = ParticleViews<MemorySpace>(n, 0);
+    nodes = GridNodeView<MemorySpace>("nodes", grid.num_nodes());
+    auto x = Kokkos::create_mirror_view(particles.x);
+    auto v = Kokkos::create_mirror_view(particles.v);
+    auto C = Kokkos::create_mirror_view(particles.C);
+    auto F = Kokkos::create_mirror_view(particles.F);
+    auto m = Kokkos::create_mirror_view(particles.mass);
+    auto vol = Kokkos::create_mirror_view(particles.volume);
+    std::mt19937_64 rng(seed);
+    std::uniform_real_distribution<double> u(-1, 1);
+    for (int p = 0; p < n; ++p) {
+      for (int d = 0; d < 3; ++d) x(p, d) = real_t(0.45 * u(rng));
+      for (int d = 0; d < 3; ++d) {
+        v(p, d) = real_t(b[d] + A[d][0] * x(p, 0) + A[d][1] * x(p, 1) + A[d][2] * x(p, 2) + noise * u(rng));
+        for (int e = 0; e < 3; ++e) {
+          C(p, d, e) = real_t(A[d][e] + noise * u(rng));
+          F(p, d, e) = d == e ? 1 : 0;
+        }
+      }
+      m(p) = real_t(1 + 0.5 * u(rng));
+      vol(p) = real_t(1e-3);
+    }
+    Kokkos::deep_copy(particles.x, x);
+    Kokkos::deep_copy(particles.v, v);
+    Kokkos::deep_copy(particles.C, C);
+    Kokkos::deep_copy(particles.F, F);
+    Kokkos::deep_copy(particles.mass, m);
+    Kokkos::deep_copy(particles.volume, vol);
+  }
+
+  // P2G with dt = 0 (no forces), then the grid update with dt = 0 (momentum to velocity).
+  void p2g(P2GStrategy strategy, bool apic) {
+    const ExecutionSpace space;
+    const P2GParticle<MemorySpace> kernel{particles, grid, elastic_material<real_t>(ElasticModel::FixedCorotated, 1, 0),
+                                          ExternalForces{}, real_t(0), apic, outside};
+    Kokkos::deep_copy(nodes, real_t(0));
+    if (strategy == P2GStrategy::Atomic) {
+      p2g_atomic(space, kernel, nodes);
+    } else {
+      GridScatterView<ExecutionSpace, MemorySpace> scatter(nodes);
+      p2g_scatter(space, kernel, scatter, nodes);
+    }
+    space.fence();
+  }
+  void update() {
+    grid_update(ExecutionSpace(), nodes, grid, Vec3<real_t>::zero(), GridBoundary{}, real_t(0));
+  }
+};
+
+template <class ExecutionSpace>
+Totals particle_state(const TransferSetup<ExecutionSpace>& s, bool apic) {
+  auto x = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), s.particles.x);
+  auto v = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), s.particles.v);
+  auto C = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), s.particles.C);
+  auto m = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), s.particles.mass);
+  return particle_totals(x, v, C, m, s.grid.dx, apic);
+}
+
+template <class ExecutionSpace>
+Totals grid_state(const TransferSetup<ExecutionSpace>& s, bool velocity) {
+  auto nodes = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), s.nodes);
+  return grid_totals(nodes, s.grid, velocity);
+}
+
+template <class ExecutionSpace>
+void check_conservation(P2GStrategy strategy, bool apic) {
+  const double A[3][3] = {{0.1, -0.7, 0.2}, {0.7, 0.0, -0.3}, {-0.2, 0.3, -0.1}}, b[3] = {0.3, -0.2, 0.5};
+  const int n = 3000;
+  TransferSetup<ExecutionSpace> s(n, A, b, 0.5, 3);
+  const Totals particles_before = particle_state(s, apic);
+  s.p2g(strategy, apic);
+  const Totals grid_momenta = grid_state(s, false);
+  s.update();
+  const Totals grid_velocities = grid_state(s, true);
+  g2p(ExecutionSpace(), s.particles, s.nodes, s.grid, real_t(0), apic);
+  const Totals particles_after = particle_state(s, apic);
+  // Totals are sums of 27 n rounded terms whose magnitudes add up to at most 8 x the total mass (|x| < 0.5,
+  // |v| < 3): rounding errors of random sign grow like sqrt(27 n) eps times that. PIC loses the affine part, so
+  // angular momentum is checked with APIC only.
+  const double tol = std::sqrt(27.0 * n) * eps * 8 * particles_before.mass;
+  expect_totals_near(grid_momenta, particles_before, tol, tol, tol, apic, "P2G");
+  expect_totals_near(grid_velocities, grid_momenta, tol, tol, tol, true, "grid update");
+  expect_totals_near(particles_after, grid_velocities, tol, tol, tol, apic, "G2P");
+  EXPECT_GT(particles_before.mass, 0.5 * n);
+}
+
+template <class ExecutionSpace>
+void check_affine_reproduced(P2GStrategy strategy) {
+  const double A[3][3] = {{0.1, -0.7, 0.2}, {0.7, 0.05, -0.3}, {-0.2, 0.3, -0.1}}, b[3] = {0.3, -0.2, 0.5};
+  const int n = 2000;
+  TransferSetup<ExecutionSpace> s(n, A, b, 0.0, 5);
+  s.p2g(strategy, true);
+  s.update();
+  g2p(ExecutionSpace(), s.particles, s.nodes, s.grid, real_t(0), true);
+  auto x = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), s.particles.x);
+  auto v = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), s.particles.v);
+  auto C = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), s.particles.C);
+  // Exact in exact arithmetic (partition of unity and linear completeness); rounding of a 27-term weighted sum of
+  // O(1) values, divided by node masses, stays below ~100 eps. C carries a 4/dx^2 = 256 factor on offsets of size dx,
+  // which amplifies rounding by ~1/dx = 8.
+  for (int p = 0; p < n; ++p)
+    for (int d = 0; d < 3; ++d) {
+      const double exact = b[d] + A[d][0] * x(p, 0) + A[d][1] * x(p, 1) + A[d][2] * x(p, 2);
+      EXPECT_NEAR(v(p, d), exact, 100 * eps) << "point " << p;
+      for (int e = 0; e < 3; ++e) EXPECT_NEAR(C(p, d, e), A[d][e], 1000 * eps) << "point " << p;
+    }
+}
+
+template <class ExecutionSpace>
+class Transfers : public ::testing::Test {};
+TYPED_TEST_SUITE(Transfers, EnabledBackends, BackendName);
+
+TYPED_TEST(Transfers, ApicConservesMassMomentumAngularMomentumAtomic) {
+  check_conservation<TypeParam>(P2GStrategy::Atomic, true);
+}
+TYPED_TEST(Transfers, ApicConservesMassMomentumAngularMomentumScatterView) {
+  check_conservation<TypeParam>(P2GStrategy::ScatterView, true);
+}
+TYPED_TEST(Transfers, PicConservesMassAndMomentum) { check_conservation<TypeParam>(P2GStrategy::Atomic, false); }
+TYPED_TEST(Transfers, ApicReproducesAffineFieldAtomic) { check_affine_reproduced<TypeParam>(P2GStrategy::Atomic); }
+TYPED_TEST(Transfers, ApicReproducesAffineFieldScatterView) {
+  check_affine_reproduced<TypeParam>(P2GStrategy::ScatterView);
+}
+
+}  // namespace
+}  // namespace mpmrom::test
