@@ -37,9 +37,9 @@ KOKKOS_INLINE_FUNCTION T stable_time_step_wave_speed(const ElasticMaterial<T>& m
 // Neo-Hookean is undefined for J = det F <= 0 (ln J). Rather than return NaN, it is evaluated with J clamped to
 // [neo_hookean_min_jacobian, inf) wherever J enters through ln J or 1/J: energy and stresses stay finite for every
 // finite F (also inverted or singular), are continuous in F, and for J below the clamp the stress still pushes towards
-// larger J (P : cof F < 0), but they are no longer exact derivatives of one energy there. The solver must detect
-// inversion (J <= 0) itself. 1e-6 is far past any physical state (the stress there is ~1e6 mu), and keeps
-// lambda |ln J| / J below 1e19 for lambda <= 1e12 Pa, well inside float's range.
+// larger J (P : cof F < 0 unless cof F ~ 0, i.e. rank F <= 1), but P is no longer the derivative of Psi there. The
+// solver must detect inversion (J <= 0) itself. 1e-6 is far past any physical state (the stress there is ~1e6 mu),
+// and keeps lambda |ln J| / J at ~1.4e19 for lambda = 1e12 Pa, far inside float's range.
 template <class T>
 KOKKOS_INLINE_FUNCTION constexpr T neo_hookean_min_jacobian() {
   return T(1e-6);
@@ -105,11 +105,12 @@ KOKKOS_INLINE_FUNCTION Mat3<T> fixed_corotated_kirchhoff(const ElasticMaterial<T
   svd3(F, U, sigma, V);
   const T j = determinant(F);
   const T volumetric = m.lambda * (j - T(1)) * j;
+  Vec3<T> d;
+  for (int k = 0; k < 3; ++k) d[k] = T(2) * m.mu * (sigma[k] - T(1)) * sigma[k];
   Mat3<T> tau;
   for (int a = 0; a < 3; ++a)
     for (int b = a; b < 3; ++b) {
-      T s = T(0);
-      for (int k = 0; k < 3; ++k) s += U(a, k) * (T(2) * m.mu * (sigma[k] - T(1)) * sigma[k]) * U(b, k);
+      const T s = U(a, 0) * d[0] * U(b, 0) + U(a, 1) * d[1] * U(b, 1) + U(a, 2) * d[2] * U(b, 2);
       tau(a, b) = s;
       tau(b, a) = s;
     }
@@ -145,8 +146,8 @@ KOKKOS_INLINE_FUNCTION Mat3<T> first_piola(const ElasticMaterial<T>& m, const Ma
   return Mat3<T>::zero();  // not reached where Kokkos::abort is noreturn
 }
 
-// Kirchhoff stress tau = P F^T = J sigma (sigma: Cauchy stress), symmetric; MPM's grid force is -sum_p V0_p tau_p grad
-// w.
+// Kirchhoff stress tau = P F^T = J sigma (sigma: Cauchy stress), symmetric. MPM's grid force is
+// f_i = -sum_p V0_p tau_p grad w_ip.
 template <class T>
 KOKKOS_INLINE_FUNCTION Mat3<T> kirchhoff_stress(const ElasticMaterial<T>& m, const Mat3<T>& F) {
   switch (m.model) {

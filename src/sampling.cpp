@@ -178,7 +178,13 @@ ParticleSamples sample_scene(const Scene& scene) {
   for (std::size_t k = 0; k < scene.bodies.size(); ++k) {
     const BodySpec& b = scene.bodies[k];
     std::vector<Vec3d> points;
-    if (b.sampling == SamplingKind::Lattice) {
+    if (b.sampling == SamplingKind::Explicit) {
+      for (const auto& offset : b.points) {
+        const Vec3d p{b.center[0] + offset[0], b.center[1] + offset[1], b.center[2] + offset[2]};
+        if (!body_contains(b, p)) throw std::runtime_error("body '" + b.name + "': an explicit point lies outside it");
+        points.push_back(p);
+      }
+    } else if (b.sampling == SamplingKind::Lattice) {
       points = lattice_points(b, b.count > 0 ? lattice_spacing_for_count(b, b.count) : b.spacing);
     } else {
       if (b.count > 0) throw std::runtime_error("body '" + b.name + "': Poisson-disk sampling takes a spacing");

@@ -301,15 +301,28 @@ Scene parse(const std::string& path, const std::string& text, const std::vector<
       b.sampling = SamplingKind::Lattice;
     else if (sampling == "poisson_disk")
       b.sampling = SamplingKind::PoissonDisk;
+    else if (sampling == "points")
+      b.sampling = SamplingKind::Explicit;
     else
-      fail(where, "sampling must be lattice or poisson_disk, not '" + sampling + "'");
-    const double count = r.number("count", 0);
-    b.spacing = r.number("spacing", 0);
-    b.seed = static_cast<unsigned>(r.number("seed", 1));
-    if (count < 0 || count != std::floor(count) || count > 2e9) fail(where, "count must be a whole number >= 0");
-    b.count = static_cast<long>(count);
-    if ((b.count > 0) == (b.spacing > 0)) fail(where, "give exactly one of count or spacing (positive)");
-    if (b.spacing < 0) fail(where, "spacing must be positive");
+      fail(where, "sampling must be lattice, poisson_disk or points, not '" + sampling + "'");
+    if (b.sampling == SamplingKind::Explicit) {
+      const toml::array* points = r.array("points");
+      if (!points || points->empty()) fail(where, "points sampling needs points = [[dx, dy, dz], ...]");
+      for (const auto& node : *points) {
+        const toml::array* p = node.as_array();
+        if (!p || p->size() != 3) fail(where, "each point must be an array of 3 numbers");
+        b.points.push_back({r.to_number(*p->get(0), "points"), r.to_number(*p->get(1), "points"),
+                            r.to_number(*p->get(2), "points")});
+      }
+    } else {
+      const double count = r.number("count", 0);
+      b.spacing = r.number("spacing", 0);
+      b.seed = static_cast<unsigned>(r.number("seed", 1));
+      if (count < 0 || count != std::floor(count) || count > 2e9) fail(where, "count must be a whole number >= 0");
+      b.count = static_cast<long>(count);
+      if ((b.count > 0) == (b.spacing > 0)) fail(where, "give exactly one of count or spacing (positive)");
+      if (b.spacing < 0) fail(where, "spacing must be positive");
+    }
     b.velocity = r.vec3("velocity", {0, 0, 0});
     b.angular_velocity = r.vec3("angular_velocity", {0, 0, 0});
     r.check_all_used();

@@ -21,7 +21,7 @@ struct AxisBox {
 };
 
 enum class ShapeKind { Box, Cylinder, Sphere };
-enum class SamplingKind { Lattice, PoissonDisk };
+enum class SamplingKind { Lattice, PoissonDisk, Explicit };
 
 struct BodySpec {
   std::string name;
@@ -34,6 +34,7 @@ struct BodySpec {
   long count = 0;        // exact number of points (lattice spacing searched for it), or 0 to use spacing
   double spacing = 0;    // lattice spacing or Poisson-disk radius
   unsigned seed = 1;     // Poisson-disk sampling
+  std::vector<Vec3d> points;  // explicit sampling: offsets from the center, each inside the shape
   Vec3d velocity{};          // initial velocity
   Vec3d angular_velocity{};  // initial spin about the body's center (rad/s)
 };
