@@ -18,9 +18,9 @@ struct Totals {
 
 // Particle totals. With APIC the affine part carries angular momentum m (dx^2 / 4) eps_abc C_cb (Jiang et al. 2015),
 // since sum_i w_ip (x_i - x_p)(x_i - x_p)^T = (dx^2 / 4) I for quadratic B-splines.
-template <class Host>
-Totals particle_totals(const Host& x, const Host& v, const Kokkos::View<real_t* [3][3], Kokkos::HostSpace>& C,
-                       const Kokkos::View<real_t*, Kokkos::HostSpace>& mass, double dx, bool apic) {
+template <class Vectors, class Matrices, class Scalars>
+Totals particle_totals(const Vectors& x, const Vectors& v, const Matrices& C, const Scalars& mass, double dx,
+                       bool apic) {
   Totals t;
   const double inertia = dx * dx / 4;
   for (std::size_t p = 0; p < mass.extent(0); ++p) {
@@ -37,8 +37,8 @@ Totals particle_totals(const Host& x, const Host& v, const Kokkos::View<real_t* 
 }
 
 // Grid totals; `velocity` says whether columns 1-3 hold velocities (after the update) or momenta (after P2G).
-Totals grid_totals(const Kokkos::View<real_t* [4], Kokkos::HostSpace>& nodes, const GridGeometry<real_t>& grid,
-                   bool velocity) {
+template <class Nodes>
+Totals grid_totals(const Nodes& nodes, const GridGeometry<real_t>& grid, bool velocity) {
   Totals t;
   for (int node = 0; node < grid.num_nodes(); ++node) {
     const double m = nodes(node, 0);
