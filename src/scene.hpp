@@ -74,7 +74,7 @@ struct GroundSpec {
 enum class TransferKind { APIC, PIC };
 
 struct ParameterDesign {
-  std::vector<std::string> names;           // in file order
+  std::vector<std::string> names;           // alphabetical (TOML tables keep no order)
   std::vector<std::vector<double>> levels;  // levels per name (full factorial), or
   std::vector<std::vector<double>> runs;    // explicit runs (one value per name)
   std::vector<int> test_runs;               // indices of runs in the test split
