@@ -1,0 +1,94 @@
+// Scene files: parameters and overrides, the design, and one clear error for each kind of bad input.
+#include <stdexcept>
+
+#include "backends.hpp"
+#include "scene.hpp"
+
+namespace mpmrom::test {
+namespace {
+
+const std::string kValid = R"(
+name = "valid"
+[parameters]
+force = 2.0
+[material]
+youngs_modulus = 1e4
+poisson_ratio = 0.3
+density = 100.0
+[[body]]
+shape = "box"
+center = [0.0, 0.0, 0.0]
+size = [0.2, 0.2, 0.2]
+spacing = 0.05
+[grid]
+lo = [-1.0, -1.0, -1.0]
+hi = [1.0, 1.0, 1.0]
+dx = 0.1
+[[force]]
+lo = [-1.0, -1.0, 0.05]
+hi = [1.0, 1.0, 1.0]
+magnitude = "$force"
+theta_deg = 90.0
+phi_deg = 0.0
+[time]
+end_time = 0.1
+[design]
+force = [1.0, 2.0]
+test = [1]
+)";
+
+// The error message of parsing `text`, or "" if it parsed.
+std::string error_of(const std::string& text, const std::vector<std::string>& overrides = {}) {
+  try {
+    parse_scene(text, "scene.toml", overrides);
+  } catch (const std::runtime_error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+std::string replace(std::string text, const std::string& from, const std::string& to) {
+  const auto at = text.find(from);
+  EXPECT_NE(at, std::string::npos) << from;
+  return text.replace(at, from.size(), to);
+}
+
+TEST(Scene, ParametersOverridesAndDesign) {
+  const Scene scene = parse_scene(kValid, "scene.toml");
+  ASSERT_EQ(scene.forces.size(), 1u);
+  // theta = 90 deg, phi = 0: a horizontal push along +y of the parameter's magnitude.
+  EXPECT_NEAR(scene.forces[0].force[0], 0.0, 1e-15);
+  EXPECT_NEAR(scene.forces[0].force[1], 2.0, 1e-15);
+  EXPECT_EQ(scene.design.all_runs().size(), 2u);
+  EXPECT_EQ(scene.design.test_runs, std::vector<int>{1});
+  const Scene changed = parse_scene(kValid, "scene.toml", {"force=3.5", "material.density=500"});
+  EXPECT_NEAR(changed.forces[0].force[1], 3.5, 1e-15);
+  EXPECT_EQ(changed.material.density, 500.0);
+}
+
+TEST(Scene, BadInputGivesOneClearLine) {
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {replace(kValid, "density = 100.0", "density = 100.0\ndensty = 3"), "unknown key 'densty'"},
+      {replace(kValid, "poisson_ratio = 0.3", "poisson_ratio = 0.5"), "poisson_ratio must lie in (-1, 0.5)"},
+      {replace(kValid, "youngs_modulus = 1e4", "youngs_modulus = -1"), "youngs_modulus must be positive"},
+      {replace(kValid, "youngs_modulus = 1e4", "youngs_modulus = nan"), "not finite"},
+      {replace(kValid, "size = [0.2, 0.2, 0.2]", "size = [0.2, 0.0, 0.2]"), "box size must be positive"},
+      {replace(kValid, "center = [0.0, 0.0, 0.0]", "center = [0.95, 0.0, 0.0]"), "must lie inside the grid"},
+      {replace(kValid, "dx = 0.1", "dx = 0"), "dx must be positive"},
+      {replace(kValid, "magnitude = \"$force\"", "magnitude = \"$forse\""), "unknown parameter '$forse'"},
+      {replace(kValid, "spacing = 0.05", "spacing = \"fine\""), "must be a number"},
+      {replace(kValid, "[time]", "[time\n"), "scene.toml:"},
+      {replace(kValid, "test = [1]", "test = [2]"), "test must list run indices"},
+      {replace(kValid, "shape = \"box\"", "shape = \"torus\""), "shape must be box, cylinder or sphere"},
+  };
+  for (const auto& [text, expected] : cases) {
+    const std::string message = error_of(text);
+    EXPECT_NE(message.find(expected), std::string::npos) << "expected '" << expected << "', got '" << message << "'";
+    EXPECT_EQ(message.find('\n'), std::string::npos) << message;
+  }
+  EXPECT_NE(error_of(kValid, {"forse=1"}).find("no such parameter"), std::string::npos);
+  EXPECT_NE(error_of(kValid, {"force=abc"}).find("not a finite number"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace mpmrom::test
