@@ -10,28 +10,26 @@
 namespace mpmrom::test {
 namespace {
 
-double center_of_mass(const FomSolver& solver, int axis, std::size_t first, std::size_t last) {
+// Mass-weighted mean of one component of the positions (or velocities) of points [first, last).
+double mass_weighted_mean(const FomSolver& solver, bool velocity, int axis, std::size_t first, std::size_t last) {
   const ParticleFrame f = solver.frame();
   std::vector<real_t> X, mass, volume;
   solver.reference(X, mass, volume);
-  double m = 0, mx = 0;
+  const std::vector<real_t>& field = velocity ? f.v : f.x;
+  double m = 0, sum = 0;
   for (std::size_t p = first; p < last; ++p) {
     m += mass[p];
-    mx += mass[p] * f.x[3 * p + axis];
+    sum += mass[p] * field[3 * p + axis];
   }
-  return mx / m;
+  return sum / m;
+}
+
+double center_of_mass(const FomSolver& solver, int axis, std::size_t first, std::size_t last) {
+  return mass_weighted_mean(solver, false, axis, first, last);
 }
 
 double mean_velocity(const FomSolver& solver, int axis, std::size_t first, std::size_t last) {
-  const ParticleFrame f = solver.frame();
-  std::vector<real_t> X, mass, volume;
-  solver.reference(X, mass, volume);
-  double m = 0, mv = 0;
-  for (std::size_t p = first; p < last; ++p) {
-    m += mass[p];
-    mv += mass[p] * f.v[3 * p + axis];
-  }
-  return mv / m;
+  return mass_weighted_mean(solver, true, axis, first, last);
 }
 
 struct Energies {
