@@ -99,3 +99,12 @@ inline std::string kokkos_version_string() {
 #else
 #define MPMROM_KERNEL_PRINTF(...) printf(__VA_ARGS__)
 #endif
+
+// The join() of a reduction functor took volatile arguments before 3.7 (required in 3.4; deprecated in 3.7, ignored
+// by 4.x). Write `void join(MPMROM_REDUCTION_VOLATILE value_type dst, const MPMROM_REDUCTION_VOLATILE value_type src)`.
+// Remove when the minimum is 3.7.
+#if MPMROM_KOKKOS_AT_LEAST(3, 7, 0)
+#define MPMROM_REDUCTION_VOLATILE
+#else
+#define MPMROM_REDUCTION_VOLATILE volatile
+#endif

@@ -1,0 +1,344 @@
+// The deformation-map network (kernels/nn/): every Jacobian of the fused evaluation and every gradient of loss (7)
+// against central finite differences, on every backend. The finite-difference checks run in double whatever the
+// build's precision (the kernels are templates on the scalar type), so the tolerances stay tight; a separate check
+// compares the float kernels with the double ones.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "backends.hpp"
+#include "kernels/nn/mlp.hpp"
+#include "kernels/nn/mlp_train.hpp"
+
+namespace {
+
+using namespace mpmrom;
+using mpmrom::test::BackendName;
+using mpmrom::test::EnabledBackends;
+
+template <class T>
+constexpr double epsilon_of() {
+  return std::numeric_limits<T>::epsilon();
+}
+
+// A network with random weights (scaled by 1/sqrt(fan-in), as training starts), non-trivial standardisation, and
+// `num_codes` random latent codes stored after the weights.
+struct HostNetwork {
+  nn::MlpLayout layout;
+  nn::Standardization<double> standardization;
+  std::vector<double> params;  // weights, then codes
+};
+
+HostNetwork random_network(int latent, int width, int depth, int num_codes, unsigned seed) {
+  HostNetwork net;
+  net.layout = nn::MlpLayout::make(latent, width, depth);
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> uniform(-1, 1);
+  for (int l = 0; l < depth; ++l) {
+    const double scale = 1.5 / std::sqrt(double(net.layout.dims[l]));
+    for (int i = 0; i < net.layout.dims[l + 1] * (net.layout.dims[l] + 1); ++i)
+      net.params.push_back(scale * uniform(rng));
+  }
+  for (int i = 0; i < num_codes * latent; ++i) net.params.push_back(uniform(rng));
+  for (int d = 0; d < 3; ++d) {
+    net.standardization.input_mean[d] = 0.1 * uniform(rng);
+    net.standardization.input_scale[d] = 0.2 + 0.05 * d;
+    net.standardization.output_mean[d] = 0.01 * uniform(rng);
+    net.standardization.output_scale[d] = 0.05 + 0.02 * d;
+  }
+  return net;
+}
+
+template <class T, class MemorySpace>
+struct DeviceNetwork {
+  nn::Mlp<T, MemorySpace> mlp;
+  Kokkos::View<T*, MemorySpace> params;
+};
+
+template <class T, class MemorySpace>
+DeviceNetwork<T, MemorySpace> to_device(const HostNetwork& net) {
+  DeviceNetwork<T, MemorySpace> d;
+  d.params = Kokkos::View<T*, MemorySpace>("params", net.params.size());
+  auto host = Kokkos::create_mirror_view(d.params);
+  for (std::size_t i = 0; i < net.params.size(); ++i) host(i) = T(net.params[i]);
+  Kokkos::deep_copy(d.params, host);
+  d.mlp.layout = net.layout;
+  for (int k = 0; k < 3; ++k) {
+    d.mlp.standardization.input_mean[k] = T(net.standardization.input_mean[k]);
+    d.mlp.standardization.input_scale[k] = T(net.standardization.input_scale[k]);
+    d.mlp.standardization.output_mean[k] = T(net.standardization.output_mean[k]);
+    d.mlp.standardization.output_scale[k] = T(net.standardization.output_scale[k]);
+  }
+  d.mlp.params = d.params;
+  return d;
+}
+
+template <class T, class MemorySpace>
+Kokkos::View<T**, Kokkos::LayoutRight, MemorySpace> device_matrix(const std::vector<double>& values, int rows,
+                                                                  int cols) {
+  Kokkos::View<T**, Kokkos::LayoutRight, MemorySpace> view("matrix", rows, cols);
+  auto host = Kokkos::create_mirror_view(view);
+  for (int i = 0; i < rows; ++i)
+    for (int j = 0; j < cols; ++j) host(i, j) = T(values[std::size_t(i) * cols + j]);
+  Kokkos::deep_copy(view, host);
+  return view;
+}
+
+std::vector<double> random_values(std::size_t n, double lo, double hi, unsigned seed) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> dist(lo, hi);
+  std::vector<double> v(n);
+  for (auto& x : v) x = dist(rng);
+  return v;
+}
+
+// g at every (code, point), on the host.
+template <class ExecutionSpace>
+std::vector<double> positions(const HostNetwork& net, const std::vector<double>& X, const std::vector<double>& codes) {
+  using Mem = typename ExecutionSpace::memory_space;
+  const int r = net.layout.latent_dim;
+  const int P = int(X.size() / 3), B = int(codes.size() / r);
+  auto d = to_device<double, Mem>(net);
+  Kokkos::View<double***, Kokkos::LayoutRight, Mem> g("g", B, P, 3);
+  nn::evaluate(ExecutionSpace(), d.mlp, nn::PointsView<double, Mem>(device_matrix<double, Mem>(X, P, 3)),
+               nn::CodesView<double, Mem>(device_matrix<double, Mem>(codes, B, r)), g);
+  auto host = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), g);
+  return std::vector<double>(host.data(), host.data() + host.size());
+}
+
+template <class ExecutionSpace>
+void check_jacobians_against_finite_differences() {
+  using Mem = typename ExecutionSpace::memory_space;
+  const int r = 3, P = 7, B = 2;
+  const HostNetwork net = random_network(r, 12, 4, 0, 11);
+  const std::vector<double> X = random_values(P * 3, -0.3, 0.3, 12);
+  const std::vector<double> codes = random_values(B * r, -1, 1, 13);
+  const std::vector<double> rates = random_values(B * r, -2, 2, 14);
+
+  auto d = to_device<double, Mem>(net);
+  Kokkos::View<double***, Kokkos::LayoutRight, Mem> g("g", B, P, 3), v("v", B, P, 3);
+  Kokkos::View<double****, Kokkos::LayoutRight, Mem> F("F", B, P, 3, 3), J("J", B, P, 3, r);
+  nn::evaluate_with_jacobians(ExecutionSpace(), d.mlp, nn::PointsView<double, Mem>(device_matrix<double, Mem>(X, P, 3)),
+                              nn::CodesView<double, Mem>(device_matrix<double, Mem>(codes, B, r)),
+                              nn::CodesView<double, Mem>(device_matrix<double, Mem>(rates, B, r)), g, F, J, v);
+  auto gh = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), g);
+  auto Fh = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), F);
+  auto Jh = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), J);
+  auto vh = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), v);
+
+  // The position-only kernel does the same arithmetic in the same order.
+  const std::vector<double> g0 = positions<ExecutionSpace>(net, X, codes);
+  for (int b = 0; b < B; ++b)
+    for (int p = 0; p < P; ++p)
+      for (int k = 0; k < 3; ++k) EXPECT_NEAR(gh(b, p, k), g0[(b * P + p) * 3 + k], 4 * epsilon_of<double>());
+
+  // Central differences: truncation h^2 |g'''| / 6 with |g'''| = O(1) for these weights, rounding eps |g| / h with
+  // |g| < 1; h = 1e-5 balances them near 1e-10, and the factor 100 covers the O(1) constants.
+  const double h = 1e-5;
+  const double tol = 100 * (h * h + epsilon_of<double>() / h);
+  for (int dim = 0; dim < 3; ++dim) {
+    std::vector<double> Xp = X, Xm = X;
+    for (int p = 0; p < P; ++p) {
+      Xp[p * 3 + dim] += h;
+      Xm[p * 3 + dim] -= h;
+    }
+    const auto gp = positions<ExecutionSpace>(net, Xp, codes), gm = positions<ExecutionSpace>(net, Xm, codes);
+    for (int b = 0; b < B; ++b)
+      for (int p = 0; p < P; ++p)
+        for (int k = 0; k < 3; ++k) {
+          const std::size_t i = (b * P + p) * 3 + k;
+          EXPECT_NEAR(Fh(b, p, k, dim), (gp[i] - gm[i]) / (2 * h), tol) << "dg/dX b=" << b << " p=" << p;
+        }
+  }
+  for (int q = 0; q < r; ++q) {
+    std::vector<double> cp = codes, cm = codes;
+    for (int b = 0; b < B; ++b) {
+      cp[b * r + q] += h;
+      cm[b * r + q] -= h;
+    }
+    const auto gp = positions<ExecutionSpace>(net, X, cp), gm = positions<ExecutionSpace>(net, X, cm);
+    for (int b = 0; b < B; ++b)
+      for (int p = 0; p < P; ++p)
+        for (int k = 0; k < 3; ++k) {
+          const std::size_t i = (b * P + p) * 3 + k;
+          EXPECT_NEAR(Jh(b, p, k, q), (gp[i] - gm[i]) / (2 * h), tol) << "dg/dxhat b=" << b << " q=" << q;
+        }
+  }
+  // The directional derivative along the rate: the rates are O(2), so the step along them is h.
+  std::vector<double> cp = codes, cm = codes;
+  for (std::size_t i = 0; i < codes.size(); ++i) {
+    cp[i] += h * rates[i];
+    cm[i] -= h * rates[i];
+  }
+  const auto gp = positions<ExecutionSpace>(net, X, cp), gm = positions<ExecutionSpace>(net, X, cm);
+  for (int b = 0; b < B; ++b)
+    for (int p = 0; p < P; ++p)
+      for (int k = 0; k < 3; ++k) {
+        const std::size_t i = (b * P + p) * 3 + k;
+        EXPECT_NEAR(vh(b, p, k), (gp[i] - gm[i]) / (2 * h), 4 * tol) << "velocity b=" << b;
+      }
+}
+
+// A small auto-decoder problem: 4 snapshots of 6 points; a minibatch of 3 snapshots (one repeated through the rate
+// stencil) with 4 samples each; random targets.
+struct LossProblem {
+  int r = 2, P = 6, S = 4, per_snapshot = 4;
+  HostNetwork net;
+  std::vector<double> X, x, F, v;
+  std::vector<int> point, snapshot{2, 0, 3}, rate_from{0, 0, 2, 2}, rate_to{1, 1, 3, 3};
+  std::vector<double> rate_inv_dt{10, 10, 20, 20};
+  nn::LossWeights<double> weights;
+
+  LossProblem(double lambda_gradient, double lambda_velocity) {
+    net = random_network(r, 10, 4, S, 21);
+    X = random_values(P * 3, -0.3, 0.3, 22);
+    x = random_values(S * P * 3, -0.4, 0.4, 23);
+    F = random_values(S * P * 9, 0.5, 1.5, 24);
+    v = random_values(S * P * 3, -1, 1, 25);
+    std::mt19937_64 rng(26);
+    for (std::size_t i = 0; i < snapshot.size() * per_snapshot; ++i) point.push_back(int(rng() % P));
+    weights.lambda_gradient = lambda_gradient;
+    weights.lambda_velocity = lambda_velocity;
+    weights.position_scale = 0.1;
+    weights.gradient_scale = 0.3;
+    weights.velocity_scale = 0.5;
+  }
+};
+
+template <class ExecutionSpace, class T>
+struct LossResult {
+  double loss;
+  std::vector<double> grad;
+};
+
+// Loss (7) of the problem's minibatch with the given parameters, and its gradient when asked for.
+template <class ExecutionSpace, class T>
+LossResult<ExecutionSpace, T> evaluate_loss(const LossProblem& problem, const std::vector<double>& params,
+                                            bool with_gradient) {
+  using Mem = typename ExecutionSpace::memory_space;
+  HostNetwork net = problem.net;
+  net.params = params;
+  auto d = to_device<T, Mem>(net);
+  const auto channels = nn::Channels::make(problem.weights.lambda_gradient > 0, problem.weights.lambda_velocity > 0);
+  const int num_samples = int(problem.point.size());
+
+  auto ints = [](const std::vector<int>& values) {
+    Kokkos::View<int*, Mem> view("ints", values.size());
+    auto host = Kokkos::create_mirror_view(view);
+    for (std::size_t i = 0; i < values.size(); ++i) host(i) = values[i];
+    Kokkos::deep_copy(view, host);
+    return view;
+  };
+  auto cube = [](const std::vector<double>& values, int n0, int n1, int n2) {
+    Kokkos::View<T***, Kokkos::LayoutRight, Mem> view("cube", n0, n1, n2);
+    auto host = Kokkos::create_mirror_view(view);
+    for (std::size_t i = 0; i < values.size(); ++i) host.data()[i] = T(values[i]);
+    Kokkos::deep_copy(view, host);
+    return view;
+  };
+  nn::BatchSamples<T, Mem> batch;
+  batch.samples_per_snapshot = problem.per_snapshot;
+  batch.point = ints(problem.point);
+  batch.snapshot = ints(problem.snapshot);
+  batch.X = device_matrix<T, Mem>(problem.X, problem.P, 3);
+  batch.x = cube(problem.x, problem.S, problem.P, 3);
+  batch.F = cube(problem.F, problem.S, problem.P, 9);
+  batch.v = cube(problem.v, problem.S, problem.P, 3);
+
+  nn::CodeTable<T, Mem> table;
+  table.code_offset = net.layout.num_params;
+  table.latent_dim = problem.r;
+  table.rate_from = ints(problem.rate_from);
+  table.rate_to = ints(problem.rate_to);
+  Kokkos::View<T*, Mem> inv_dt("inv_dt", problem.S);
+  auto inv_dt_host = Kokkos::create_mirror_view(inv_dt);
+  for (int s = 0; s < problem.S; ++s) inv_dt_host(s) = T(problem.rate_inv_dt[s]);
+  Kokkos::deep_copy(inv_dt, inv_dt_host);
+  table.rate_inv_dt = inv_dt;
+
+  nn::LossWeights<T> weights;
+  weights.lambda_gradient = T(problem.weights.lambda_gradient);
+  weights.lambda_velocity = T(problem.weights.lambda_velocity);
+  weights.position_scale = T(problem.weights.position_scale);
+  weights.gradient_scale = T(problem.weights.gradient_scale);
+  weights.velocity_scale = T(problem.weights.velocity_scale);
+
+  nn::TrainingBuffers<T, Mem> buffers(ExecutionSpace(), net.layout, channels, num_samples,
+                                      int(problem.snapshot.size()));
+  Kokkos::View<T*, Mem> grad("grad", with_gradient ? params.size() : 0);
+  const auto terms = nn::minibatch_loss(ExecutionSpace(), d.mlp, table, channels, weights, batch, buffers, grad);
+  LossResult<ExecutionSpace, T> result;
+  result.loss = double(terms.position) + problem.weights.lambda_gradient * double(terms.gradient) +
+                problem.weights.lambda_velocity * double(terms.velocity);
+  auto grad_host = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), grad);
+  result.grad.assign(grad_host.data(), grad_host.data() + grad_host.size());
+  return result;
+}
+
+template <class ExecutionSpace>
+void check_loss_gradient_against_finite_differences(double lambda_gradient, double lambda_velocity) {
+  const LossProblem problem(lambda_gradient, lambda_velocity);
+  const auto exact = evaluate_loss<ExecutionSpace, double>(problem, problem.net.params, true);
+  ASSERT_EQ(exact.grad.size(), problem.net.params.size());
+  // Central differences in double: rounding of the loss is eps |loss| / h, truncation h^2 |loss'''| / 6 with
+  // |loss'''| = O(10) for these weights and scales; h = 1e-6 keeps both below 1e-9 |loss|.
+  const double h = 1e-6;
+  const double tol = 100 * (h * h * 10 + epsilon_of<double>() * exact.loss / h);
+  int checked_codes = 0;
+  for (std::size_t i = 0; i < problem.net.params.size(); ++i) {
+    std::vector<double> plus = problem.net.params, minus = problem.net.params;
+    plus[i] += h;
+    minus[i] -= h;
+    const double fd = (evaluate_loss<ExecutionSpace, double>(problem, plus, false).loss -
+                       evaluate_loss<ExecutionSpace, double>(problem, minus, false).loss) /
+                      (2 * h);
+    EXPECT_NEAR(exact.grad[i], fd, tol) << "parameter " << i << (int(i) >= problem.net.layout.num_params ? " (code)" : "");
+    if (int(i) >= problem.net.layout.num_params && exact.grad[i] != 0) ++checked_codes;
+  }
+  // Codes 0, 2, 3 are in the batch and codes 1 and 3 enter through the rates: with a velocity term every code has a
+  // gradient, without one code 1 has none.
+  EXPECT_EQ(checked_codes, problem.r * (lambda_velocity > 0 ? 4 : 3));
+}
+
+template <class ExecutionSpace>
+void check_float_matches_double() {
+  const LossProblem problem(1.0, 1.0);
+  const auto d = evaluate_loss<ExecutionSpace, double>(problem, problem.net.params, true);
+  const auto f = evaluate_loss<ExecutionSpace, float>(problem, problem.net.params, true);
+  double largest = 0;
+  for (double g : d.grad) largest = std::max(largest, std::abs(g));
+  // float rounding (6e-8) amplified by sums of O(100) terms through 4 layers stays below 1e-5 relative; 1e-4 is
+  // the bound.
+  EXPECT_NEAR(f.loss, d.loss, 1e-4 * d.loss);
+  for (std::size_t i = 0; i < d.grad.size(); ++i) EXPECT_NEAR(f.grad[i], d.grad[i], 1e-4 * largest) << i;
+}
+
+template <class ExecutionSpace>
+void check_gradient_is_deterministic() {
+  const LossProblem problem(1.0, 1.0);
+  const auto a = evaluate_loss<ExecutionSpace, double>(problem, problem.net.params, true);
+  const auto b = evaluate_loss<ExecutionSpace, double>(problem, problem.net.params, true);
+  EXPECT_EQ(a.loss, b.loss);
+  EXPECT_EQ(a.grad, b.grad);
+}
+
+template <class ExecutionSpace>
+class Mlp : public ::testing::Test {};
+TYPED_TEST_SUITE(Mlp, EnabledBackends, BackendName);
+
+TYPED_TEST(Mlp, JacobiansMatchFiniteDifferences) { check_jacobians_against_finite_differences<TypeParam>(); }
+TYPED_TEST(Mlp, PositionLossGradientMatchesFiniteDifferences) {
+  check_loss_gradient_against_finite_differences<TypeParam>(0, 0);
+}
+TYPED_TEST(Mlp, VelocityLossGradientMatchesFiniteDifferences) {
+  check_loss_gradient_against_finite_differences<TypeParam>(0, 0.7);
+}
+TYPED_TEST(Mlp, FullLossGradientMatchesFiniteDifferences) {
+  check_loss_gradient_against_finite_differences<TypeParam>(2.0, 0.7);
+}
+TYPED_TEST(Mlp, FloatKernelsMatchDouble) { check_float_matches_double<TypeParam>(); }
+TYPED_TEST(Mlp, GradientIsBitwiseReproducible) { check_gradient_is_deterministic<TypeParam>(); }
+
+}  // namespace
