@@ -4,6 +4,7 @@
 
 #include <cstdio>
 #include <exception>
+#include <filesystem>
 #include <iostream>
 #include <map>
 #include <unistd.h>
@@ -12,6 +13,7 @@
 #include "mpmrom_config.hpp"
 #include "runtime.hpp"
 #include "simulate.hpp"
+#include "trainer.hpp"
 
 namespace {
 
@@ -35,6 +37,30 @@ void report_progress(const mpmrom::SimulationProgress& p, bool quiet) {
   const double left = p.frame > 0 ? p.seconds * (p.num_frames - p.frame) / p.frame : 0;
   std::fprintf(stderr, "  frame %d/%d  t = %.4f s  %ld steps  %.3g particle-steps/s  %.1f s left\n", p.frame,
                p.num_frames, p.time, p.steps, rate, left);
+}
+
+std::string duration_string(double seconds) {
+  char text[32];
+  if (seconds < 60)
+    std::snprintf(text, sizeof text, "%.0f s", seconds);
+  else if (seconds < 3600)
+    std::snprintf(text, sizeof text, "%dm%02ds", int(seconds) / 60, int(seconds) % 60);
+  else
+    std::snprintf(text, sizeof text, "%dh%02dm", int(seconds) / 3600, int(seconds) % 3600 / 60);
+  return text;
+}
+
+// One line per epoch on a terminal, about 20 per run otherwise (and every validated epoch).
+void report_training(const mpmrom::TrainingProgress& p, bool quiet) {
+  if (quiet) return;
+  const bool terminal = isatty(STDERR_FILENO);
+  const int twentieth = std::max(1, p.epochs / 20);
+  if (!terminal && !p.validated && p.epoch % twentieth != 0 && p.epoch != p.epochs) return;
+  std::fprintf(stderr, "  epoch %d/%d  loss %.3e (x %.2e F %.2e v %.2e)", p.epoch, p.epochs, p.train.total,
+               p.train.position, p.train.gradient, p.train.velocity);
+  if (p.validated) std::fprintf(stderr, "  validation %.3e", p.validation.total);
+  std::fprintf(stderr, "  lr %.1e  %.3g samples/s  %s left\n", p.learning_rate, p.samples_per_second,
+               duration_string(p.seconds_left).c_str());
 }
 
 }  // namespace
@@ -78,6 +104,42 @@ int main(int argc, char** argv) {
       ->transform(CLI::CheckedTransformer(kP2GStrategies, CLI::ignore_case));
   sweep->footer("Example: mpmrom sweep scenes/poke_cylinder.toml --out data/poke");
 
+  std::vector<std::string> train_inputs;
+  std::string model_path;
+  mpmrom::TrainingSettings training;
+  bool resume = false;
+  auto* train = app.add_subcommand("train", "Train the deformation map g(X; xhat) on full-order runs (loss (7))");
+  train->add_option("data", train_inputs, "Sweep directories (design.csv splits train/test) or snapshot files")
+      ->required()
+      ->check(CLI::ExistingPath);
+  train->add_option("--out", model_path, "Model file to write (HDF5)")->required();
+  train->add_option("--latent", training.latent_dim, "Latent dimension r")->capture_default_str();
+  train->add_option("--width", training.width, "Hidden units per layer")->capture_default_str();
+  train->add_option("--depth", training.depth, "Affine layers (depth - 1 hidden ELU layers)")->capture_default_str();
+  train->add_option("--lambda-grad", training.lambda_gradient, "lambda1: weight of the dg/dX - F misfit (relative)")
+      ->capture_default_str();
+  train->add_option("--lambda-vel", training.lambda_velocity,
+                    "lambda2: weight of the dg/dxhat xhatdot - v misfit (relative)")
+      ->capture_default_str();
+  train->add_option("--epochs", training.epochs, "Epochs (each visits every training snapshot once)")
+      ->capture_default_str();
+  train->add_option("--batch-snapshots", training.batch_snapshots, "Snapshots per minibatch")->capture_default_str();
+  train->add_option("--points-per-snapshot", training.points_per_snapshot, "Material points drawn per snapshot visit")
+      ->capture_default_str();
+  train->add_option("--learning-rate", training.learning_rate, "Adam learning rate, first epoch")
+      ->capture_default_str();
+  train->add_option("--final-learning-rate", training.final_learning_rate, "Adam learning rate, last epoch")
+      ->capture_default_str();
+  train->add_option("--validation", training.validation_fraction, "Fraction of material points held out")
+      ->capture_default_str();
+  train->add_option("--seed", training.seed, "Random seed (initial weights, minibatches, validation points)")
+      ->capture_default_str();
+  train->add_option("--checkpoint-seconds", training.checkpoint_seconds, "Seconds between checkpoints (MODEL.h5.ckpt)")
+      ->capture_default_str();
+  train->add_flag("--resume", resume, "Continue from MODEL.h5.ckpt, left by a run that was stopped");
+  train->footer("Example: mpmrom train data/poke --out poke_model.h5\n"
+                "Checkpoints go to MODEL.h5.ckpt while training and are removed once MODEL.h5 is written.");
+
   long bench_steps = 20, bench_warmup = 3;
   bool bench_json = false;
   auto* bench = app.add_subcommand("bench", "Time the solvers; --json prints one benchmark record on stdout");
@@ -114,6 +176,37 @@ int main(int argc, char** argv) {
                                   << (r.test ? "test" : "train") << ")\n";
                     },
                     progress);
+    }
+    if (*train) {
+      if (!quiet) std::cerr << "mpmrom train: reading " << train_inputs.size() << " input(s)\n";
+      const auto data = mpmrom::load_training_data(train_inputs);
+      if (!quiet)
+        std::cerr << "mpmrom train: " << data.train.runs.size() << " training runs, " << data.test.runs.size()
+                  << " test runs, " << data.train.runs.front().num_points << " points; r = " << training.latent_dim
+                  << ", " << training.depth << " layers of " << training.width << ", lambda1 = "
+                  << training.lambda_gradient << ", lambda2 = " << training.lambda_velocity << ", "
+                  << training.epochs << " epochs\n";
+      const std::string checkpoint = model_path + ".ckpt";
+      mpmrom::TrainingCallbacks callbacks;
+      callbacks.progress = [quiet](const mpmrom::TrainingProgress& p) { report_training(p, quiet); };
+      callbacks.message = [quiet](const std::string& text) {
+        if (!quiet) std::cerr << "mpmrom train: " << text << "\n";
+      };
+      const auto model = mpmrom::train_model(data, training, checkpoint, resume, callbacks);
+      mpmrom::save_model(model_path, model);
+      std::error_code ignored;
+      std::filesystem::remove(checkpoint, ignored);
+      if (!quiet) {
+        std::cerr << "mpmrom train: wrote " << model_path << "\n";
+        for (const char* split : {"train", "validation_points", "test"}) {
+          if (!model.errors.contains(split)) continue;
+          const auto& e = model.errors[split];
+          std::fprintf(stderr, "  %-18s position %.4f %%  displacement %.3f %%  velocity %.3f %%  F %.4f %%  strain %.3f %%\n",
+                       split, 100 * e["position_error"].get<double>(), 100 * e["displacement_error"].get<double>(),
+                       100 * e["velocity_error"].get<double>(), 100 * e["F_error"].get<double>(),
+                       100 * e["strain_error"].get<double>());
+        }
+      }
     }
     if (*bench_fom) {
       const mpmrom::Scene scene = mpmrom::load_scene(scene_path, overrides);

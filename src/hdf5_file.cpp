@@ -277,6 +277,8 @@ Group Group::create_group(const std::string& name) {
   return Group(std::move(handle), file_name_, child_path(name));
 }
 
+bool Group::has_child(const std::string& name) const { return H5Lexists(id(), name.c_str(), H5P_DEFAULT) > 0; }
+
 Group Group::group(const std::string& name) const {
   Handle handle(H5Gopen2(id(), name.c_str(), H5P_DEFAULT));
   if (!handle.is_open()) fail(file_name_, "open", "group " + child_path(name));

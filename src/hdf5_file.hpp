@@ -106,6 +106,7 @@ class Group : public Object {
  public:
   Group create_group(const std::string& name);
   Group group(const std::string& name) const;
+  bool has_child(const std::string& name) const;  // a group or dataset of that name directly under this group
   Dataset create_dataset(const std::string& name, Element type, const std::vector<std::size_t>& shape);
   // A dataset of shape (0, entry_shape...) that grows along its first dimension by Dataset::append, one entry per
   // chunk (entries over 1 GiB span several) so that each append is one contiguous write.

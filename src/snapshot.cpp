@@ -12,63 +12,20 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "impl/file_checks.hpp"
 #include "runtime.hpp"
 
 namespace mpmrom {
 namespace {
 
+using impl::bad;
+using impl::number_string;
+using impl::read_checked;
+using impl::require_finite;
+using impl::require_positive;
+using impl::shape_string;
+
 constexpr hdf5::Element stored_element = hdf5::element_of<real_t>();
-
-[[noreturn]] void bad(const std::string& path, const std::string& problem) {
-  throw std::runtime_error(path + ": " + problem);
-}
-
-std::string number_string(double value, int digits = 6) {
-  std::ostringstream out;
-  out.precision(digits);
-  out << value;
-  return out.str();
-}
-
-std::size_t product(const std::vector<std::size_t>& shape) {
-  return std::accumulate(shape.begin(), shape.end(), std::size_t(1), std::multiplies<>());
-}
-
-std::string shape_string(const std::vector<std::size_t>& shape) {
-  std::string text = "(";
-  for (std::size_t d = 0; d < shape.size(); ++d) text += (d > 0 ? ", " : "") + std::to_string(shape[d]);
-  return text + ")";
-}
-
-// The row-major multi-index of flat element i, e.g. "(1, 17, 2)" for an array of shape (frames, points, 3).
-std::string index_string(std::size_t i, const std::vector<std::size_t>& shape) {
-  std::vector<std::size_t> index(shape.size());
-  for (std::size_t d = shape.size(); d-- > 0;) {
-    index[d] = i % shape[d];
-    i /= shape[d];
-  }
-  return shape_string(index);
-}
-
-template <class T>
-void require_finite(const std::string& path, const std::string& what, const T* values,
-                    const std::vector<std::size_t>& shape) {
-  const std::size_t count = product(shape);
-  for (std::size_t i = 0; i < count; ++i) {
-    if (!std::isfinite(values[i])) {
-      bad(path, what + " holds a non-finite value (" + number_string(values[i]) + ") at " + index_string(i, shape));
-    }
-  }
-}
-
-template <class T>
-void require_positive(const std::string& path, const std::string& what, const T* values, std::size_t count) {
-  for (std::size_t i = 0; i < count; ++i) {
-    if (!(values[i] > 0)) {
-      bad(path, what + " of point " + std::to_string(i) + " is not positive (" + number_string(values[i]) + ")");
-    }
-  }
-}
 
 // Checks everything the constructor is given before any file is created; returns num_points.
 std::size_t validated_num_points(const std::string& path, const SnapshotHeader& header, std::size_t num_points,
@@ -165,18 +122,6 @@ void write_xdmf_views(hdf5::File& file, std::size_t num_points, std::size_t num_
       views.create_entry_view(std::to_string(frame), *source, frame);
     }
   }
-}
-
-std::vector<double> read_checked(const std::string& path, const hdf5::Dataset& dataset,
-                                 const std::vector<std::size_t>& expected_shape, const std::string& expectation) {
-  const auto shape = dataset.shape();
-  if (shape != expected_shape) {
-    bad(path, "dataset " + dataset.path() + " has shape " + shape_string(shape) + ", expected " +
-                  shape_string(expected_shape) + " " + expectation);
-  }
-  auto values = dataset.read();
-  require_finite(path, "dataset " + dataset.path(), values.data(), shape);
-  return values;
 }
 
 }  // namespace

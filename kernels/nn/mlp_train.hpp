@@ -120,8 +120,7 @@ void layer_forward(const ExecutionSpace& space, const Mlp<T, MemorySpace>& mlp, 
       "mpmrom::nn::train::layer_forward", Kokkos::RangePolicy<ExecutionSpace>(space, 0, num_samples * n_out),
       KOKKOS_LAMBDA(const int e) {
         const int b = e / n_out, i = e % n_out;
-        T acc[max_channels];
-        for (int c = 0; c < channels.count; ++c) acc[c] = T(0);
+        T acc[max_channels] = {};
         for (int j = 0; j < n_in; ++j) {
           const T w = mlp.weight(l, i, j);
           for (int c = 0; c < channels.count; ++c) acc[c] += w * H(b, c, j);
@@ -300,8 +299,7 @@ void layer_input_adjoint(const ExecutionSpace& space, const Mlp<T, MemorySpace>&
       "mpmrom::nn::train::input_adjoint", Kokkos::RangePolicy<ExecutionSpace>(space, 0, num_samples * n_in),
       KOKKOS_LAMBDA(const int e) {
         const int b = e / n_in, j = e % n_in;
-        T acc[max_channels];
-        for (int c = 0; c < channels.count; ++c) acc[c] = T(0);
+        T acc[max_channels] = {};
         for (int i = 0; i < n_out; ++i) {
           const T w = mlp.weight(l, i, j);
           for (int c = 0; c < channels.count; ++c) acc[c] += w * Abar(b, c, i);
