@@ -24,4 +24,16 @@ KOKKOS_INLINE_FUNCTION T elu_second_derivative(T a) {
   return a > T(0) ? T(0) : T(math::exp(a));
 }
 
+// elu(a) and elu'(a) from one exponential (the forward pass needs both).
+template <class T>
+KOKKOS_INLINE_FUNCTION void elu_and_derivative(T a, T& value, T& derivative) {
+  if (a > T(0)) {
+    value = a;
+    derivative = T(1);
+  } else {
+    derivative = T(math::exp(a));
+    value = derivative - T(1);  // exp(a) - 1 rounds to within eps of expm1(a): absolute, not relative, accuracy
+  }
+}
+
 }  // namespace mpmrom::nn

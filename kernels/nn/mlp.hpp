@@ -143,8 +143,10 @@ KOKKOS_INLINE_FUNCTION void SerialMlpForwardJacobian(const Mlp<T, MemorySpace>& 
     for (int i = 0; i < layout.dims[l + 1]; ++i) {
       T a = mlp.bias(l, i);
       for (int j = 0; j < layout.dims[l]; ++j) a += mlp.weight(l, i, j) * h[j];
-      if (hidden) slope[l][i] = elu_derivative(a);
-      next[i] = hidden ? elu(a) : a;
+      if (hidden)
+        elu_and_derivative(a, next[i], slope[l][i]);
+      else
+        next[i] = a;
     }
     T* tmp = h;
     h = next;

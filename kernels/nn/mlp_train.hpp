@@ -23,6 +23,13 @@ namespace mpmrom::nn {
 
 inline constexpr int max_channels = 5;
 
+// CPU backends take the row-wise variants of the layer kernels (one sample per thread, contiguous inner loops that
+// vectorise without reassociating sums); GPU backends take one output entry per thread (coalesced, no local arrays).
+template <class ExecutionSpace>
+constexpr bool row_wise_kernels() {
+  return Kokkos::SpaceAccessibility<ExecutionSpace, Kokkos::HostSpace>::accessible;
+}
+
 // Which forward tangents a minibatch carries.
 struct Channels {
   int count = 1;
@@ -112,25 +119,70 @@ void fill_inputs(const ExecutionSpace& space, const Mlp<T, MemorySpace>& mlp, co
 template <class ExecutionSpace, class T, class MemorySpace>
 void layer_forward(const ExecutionSpace& space, const Mlp<T, MemorySpace>& mlp, const int l, const Channels channels,
                    const Activations<T, MemorySpace>& H, const Activations<T, MemorySpace>& A,
-                   const Activations<T, MemorySpace>& H_next) {
+                   const Activations<T, MemorySpace>& H_next,
+                   const Kokkos::View<const T*, MemorySpace>& transposed_weights) {
   const int num_samples = int(H.extent(0));
   const int n_in = mlp.layout.dims[l], n_out = mlp.layout.dims[l + 1];
   const bool hidden = l + 1 < mlp.layout.num_layers;
+  if constexpr (row_wise_kernels<ExecutionSpace>()) {
+    // W_l^T (n_in x n_out) at the layer's weight offset: out += h_j * (row j of W^T), contiguous over the outputs
+    const int w0 = mlp.layout.weight_offset[l];
+    Kokkos::parallel_for(
+        "mpmrom::nn::train::layer_forward", Kokkos::RangePolicy<ExecutionSpace>(space, 0, num_samples),
+        KOKKOS_LAMBDA(const int b) {
+          T acc[max_width], slope[max_width];
+          for (int c = 0; c < channels.count; ++c) {
+            for (int i = 0; i < n_out; ++i) acc[i] = c == 0 ? mlp.bias(l, i) : T(0);
+            for (int j = 0; j < n_in; ++j) {
+              const T h = H(b, c, j);
+              const T* wt = &transposed_weights(w0 + j * n_out);
+              for (int i = 0; i < n_out; ++i) acc[i] += h * wt[i];
+            }
+            for (int i = 0; i < n_out; ++i) A(b, c, i) = acc[i];
+            if (!hidden) continue;
+            if (c == 0) {
+              for (int i = 0; i < n_out; ++i) {
+                T value;
+                elu_and_derivative(acc[i], value, slope[i]);
+                H_next(b, 0, i) = value;
+              }
+            } else {
+              for (int i = 0; i < n_out; ++i) H_next(b, c, i) = slope[i] * acc[i];
+            }
+          }
+        });
+  } else {
+    Kokkos::parallel_for(
+        "mpmrom::nn::train::layer_forward", Kokkos::RangePolicy<ExecutionSpace>(space, 0, num_samples * n_out),
+        KOKKOS_LAMBDA(const int e) {
+          const int b = e / n_out, i = e % n_out;
+          T acc[max_channels] = {};
+          for (int j = 0; j < n_in; ++j) {
+            const T w = mlp.weight(l, i, j);
+            for (int c = 0; c < channels.count; ++c) acc[c] += w * H(b, c, j);
+          }
+          acc[0] += mlp.bias(l, i);
+          for (int c = 0; c < channels.count; ++c) A(b, c, i) = acc[c];
+          if (!hidden) return;
+          T value, slope;
+          elu_and_derivative(acc[0], value, slope);
+          H_next(b, 0, i) = value;
+          for (int c = 1; c < channels.count; ++c) H_next(b, c, i) = slope * acc[c];
+        });
+  }
+}
+
+// Every layer's W^T at that layer's weight offset (biases untouched), for the row-wise forward kernel.
+template <class ExecutionSpace, class T, class MemorySpace>
+void transpose_weights(const ExecutionSpace& space, const Mlp<T, MemorySpace>& mlp,
+                       const Kokkos::View<T*, MemorySpace>& transposed) {
+  const MlpLayout layout = mlp.layout;
   Kokkos::parallel_for(
-      "mpmrom::nn::train::layer_forward", Kokkos::RangePolicy<ExecutionSpace>(space, 0, num_samples * n_out),
-      KOKKOS_LAMBDA(const int e) {
-        const int b = e / n_out, i = e % n_out;
-        T acc[max_channels] = {};
-        for (int j = 0; j < n_in; ++j) {
-          const T w = mlp.weight(l, i, j);
-          for (int c = 0; c < channels.count; ++c) acc[c] += w * H(b, c, j);
-        }
-        acc[0] += mlp.bias(l, i);
-        for (int c = 0; c < channels.count; ++c) A(b, c, i) = acc[c];
-        if (!hidden) return;
-        const T slope = elu_derivative(acc[0]);
-        H_next(b, 0, i) = elu(acc[0]);
-        for (int c = 1; c < channels.count; ++c) H_next(b, c, i) = slope * acc[c];
+      "mpmrom::nn::train::transpose_weights", Kokkos::RangePolicy<ExecutionSpace>(space, 0, layout.num_layers),
+      KOKKOS_LAMBDA(const int l) {
+        const int n_in = layout.dims[l], n_out = layout.dims[l + 1], w0 = layout.weight_offset[l];
+        for (int i = 0; i < n_out; ++i)
+          for (int j = 0; j < n_in; ++j) transposed(w0 + j * n_out + i) = mlp.weight(l, i, j);
       });
 }
 
@@ -226,7 +278,7 @@ void activation_backward(const ExecutionSpace& space, const Channels channels, c
       KOKKOS_LAMBDA(const int e) {
         const int b = e / n, i = e % n;
         const T a = A(b, 0, i);
-        const T slope = elu_derivative(a), curvature = elu_second_derivative(a);
+        const T slope = elu_derivative(a), curvature = a > T(0) ? T(0) : slope;  // elu'' = elu' for a <= 0
         T bar0 = Hbar(b, 0, i) * slope;
         for (int c = 1; c < channels.count; ++c) {
           bar0 += Hbar(b, c, i) * curvature * A(b, c, i);
@@ -236,11 +288,12 @@ void activation_backward(const ExecutionSpace& space, const Channels channels, c
       });
 }
 
-// Samples per partial sum of the weight gradient: enough independent sums to fill a GPU, few enough on a CPU that
-// the extra pass is negligible. Fixed per backend, so the summation order (and the result) never changes.
+// Samples per partial sum of the weight gradient: enough independent sums to fill a GPU or every CPU thread, few
+// enough that the extra pass is cheap. Fixed per backend (not per thread count), so the summation order and the
+// result never change.
 template <class ExecutionSpace>
 constexpr int weight_gradient_chunk() {
-  return Kokkos::SpaceAccessibility<ExecutionSpace, Kokkos::HostSpace>::accessible ? 1024 : 32;
+  return Kokkos::SpaceAccessibility<ExecutionSpace, Kokkos::HostSpace>::accessible ? 64 : 32;
 }
 
 // Layer l's weight and bias gradients, as partial sums over chunks of samples: partial(k, ...) for chunk k, at the
@@ -256,22 +309,46 @@ void weight_gradient_partials(const ExecutionSpace& space, const MlpLayout layou
   const int n_in = layout.dims[l], n_out = layout.dims[l + 1];
   const int w0 = layout.weight_offset[l], b0 = layout.bias_offset[l];
   const int per_chunk = n_out * (n_in + 1);  // n_in weights and one bias per output unit
-  Kokkos::parallel_for(
-      "mpmrom::nn::train::weight_gradient", Kokkos::RangePolicy<ExecutionSpace>(space, 0, num_chunks * per_chunk),
-      KOKKOS_LAMBDA(const int e) {
-        const int k = e / per_chunk, rest = e % per_chunk;
-        const int i = rest / (n_in + 1), j = rest % (n_in + 1);
-        const int end = (k + 1) * chunk < num_samples ? (k + 1) * chunk : num_samples;
-        T acc = 0;
-        if (j < n_in) {
-          for (int b = k * chunk; b < end; ++b)
-            for (int c = 0; c < channels.count; ++c) acc += Abar(b, c, i) * H(b, c, j);
-          partial(k, w0 + i * n_in + j) = acc;
-        } else {
-          for (int b = k * chunk; b < end; ++b) acc += Abar(b, 0, i);
-          partial(k, b0 + i) = acc;
-        }
-      });
+  if constexpr (row_wise_kernels<ExecutionSpace>()) {
+    // one chunk per thread, accumulated in place in its partial row (the layer's W is small enough for L1)
+    Kokkos::parallel_for(
+        "mpmrom::nn::train::weight_gradient", Kokkos::RangePolicy<ExecutionSpace>(space, 0, num_chunks),
+        KOKKOS_LAMBDA(const int k) {
+          const int end = (k + 1) * chunk < num_samples ? (k + 1) * chunk : num_samples;
+          T* wbar = &partial(k, w0);
+          T* bbar = &partial(k, b0);
+          for (int i = 0; i < n_out * n_in; ++i) wbar[i] = T(0);
+          for (int i = 0; i < n_out; ++i) bbar[i] = T(0);
+          for (int b = k * chunk; b < end; ++b) {
+            for (int i = 0; i < n_out; ++i) bbar[i] += Abar(b, 0, i);
+            for (int c = 0; c < channels.count; ++c) {
+              const T* h = &H(b, c, 0);
+              for (int i = 0; i < n_out; ++i) {
+                const T a = Abar(b, c, i);
+                T* row = wbar + i * n_in;
+                for (int j = 0; j < n_in; ++j) row[j] += a * h[j];
+              }
+            }
+          }
+        });
+  } else {
+    Kokkos::parallel_for(
+        "mpmrom::nn::train::weight_gradient", Kokkos::RangePolicy<ExecutionSpace>(space, 0, num_chunks * per_chunk),
+        KOKKOS_LAMBDA(const int e) {
+          const int k = e / per_chunk, rest = e % per_chunk;
+          const int i = rest / (n_in + 1), j = rest % (n_in + 1);
+          const int end = (k + 1) * chunk < num_samples ? (k + 1) * chunk : num_samples;
+          T acc = 0;
+          if (j < n_in) {
+            for (int b = k * chunk; b < end; ++b)
+              for (int c = 0; c < channels.count; ++c) acc += Abar(b, c, i) * H(b, c, j);
+            partial(k, w0 + i * n_in + j) = acc;
+          } else {
+            for (int b = k * chunk; b < end; ++b) acc += Abar(b, 0, i);
+            partial(k, b0 + i) = acc;
+          }
+        });
+  }
 }
 
 // grad(p) = sum over chunks of partial(k, p), for the network's parameters p < partial.extent(1).
@@ -295,17 +372,34 @@ void layer_input_adjoint(const ExecutionSpace& space, const Mlp<T, MemorySpace>&
                          const Activations<T, MemorySpace>& Hbar) {
   const int num_samples = int(Abar.extent(0));
   const int n_in = mlp.layout.dims[l], n_out = mlp.layout.dims[l + 1];
-  Kokkos::parallel_for(
-      "mpmrom::nn::train::input_adjoint", Kokkos::RangePolicy<ExecutionSpace>(space, 0, num_samples * n_in),
-      KOKKOS_LAMBDA(const int e) {
-        const int b = e / n_in, j = e % n_in;
-        T acc[max_channels] = {};
-        for (int i = 0; i < n_out; ++i) {
-          const T w = mlp.weight(l, i, j);
-          for (int c = 0; c < channels.count; ++c) acc[c] += w * Abar(b, c, i);
-        }
-        for (int c = 0; c < channels.count; ++c) Hbar(b, c, j) = acc[c];
-      });
+  if constexpr (row_wise_kernels<ExecutionSpace>()) {
+    Kokkos::parallel_for(
+        "mpmrom::nn::train::input_adjoint", Kokkos::RangePolicy<ExecutionSpace>(space, 0, num_samples),
+        KOKKOS_LAMBDA(const int b) {
+          T acc[max_width];
+          for (int c = 0; c < channels.count; ++c) {
+            for (int j = 0; j < n_in; ++j) acc[j] = T(0);
+            for (int i = 0; i < n_out; ++i) {
+              const T a = Abar(b, c, i);
+              const T* w = &mlp.params(mlp.layout.weight_offset[l] + i * n_in);
+              for (int j = 0; j < n_in; ++j) acc[j] += a * w[j];
+            }
+            for (int j = 0; j < n_in; ++j) Hbar(b, c, j) = acc[j];
+          }
+        });
+  } else {
+    Kokkos::parallel_for(
+        "mpmrom::nn::train::input_adjoint", Kokkos::RangePolicy<ExecutionSpace>(space, 0, num_samples * n_in),
+        KOKKOS_LAMBDA(const int e) {
+          const int b = e / n_in, j = e % n_in;
+          T acc[max_channels] = {};
+          for (int i = 0; i < n_out; ++i) {
+            const T w = mlp.weight(l, i, j);
+            for (int c = 0; c < channels.count; ++c) acc[c] += w * Abar(b, c, i);
+          }
+          for (int c = 0; c < channels.count; ++c) Hbar(b, c, j) = acc[c];
+        });
+  }
 }
 
 // Per batch snapshot, the loss gradient with respect to its code (from channel 0) and to its code rate (from the
@@ -390,6 +484,7 @@ struct TrainingBuffers {
   std::vector<Activations<T, MemorySpace>> A;  // pre-activations of layer l (A.back() is the output y)
   Activations<T, MemorySpace> bar[2];          // adjoints, ping-pong, (samples, channels, widest)
   Kokkos::View<T**, Kokkos::LayoutRight, MemorySpace> partial;  // (chunks, network parameters)
+  Kokkos::View<T*, MemorySpace> transposed_weights;              // W_l^T of every layer (row-wise kernels only)
   Kokkos::View<T**, Kokkos::LayoutRight, MemorySpace> codes, rates, code_grad, rate_grad;  // (batch snapshots, r)
 
   template <class ExecutionSpace>
@@ -403,6 +498,8 @@ struct TrainingBuffers {
     for (auto& b : bar) b = Activations<T, MemorySpace>("mpmrom::nn::adjoint", num_samples, C, layout.widest);
     const int chunk = weight_gradient_chunk<ExecutionSpace>();
     partial = decltype(partial)("mpmrom::nn::partial", (num_samples + chunk - 1) / chunk, layout.num_params);
+    if (row_wise_kernels<ExecutionSpace>())
+      transposed_weights = decltype(transposed_weights)("mpmrom::nn::weights_t", layout.num_params);
     const int r = layout.latent_dim;
     codes = decltype(codes)("mpmrom::nn::batch_codes", num_batch_snapshots, r);
     rates = decltype(rates)("mpmrom::nn::batch_rates", num_batch_snapshots, r);
@@ -423,9 +520,11 @@ LossTerms<T> minibatch_loss(const ExecutionSpace& space, const Mlp<T, MemorySpac
   gather_codes(space, table, mlp.params, batch.snapshot, buffers.codes, buffers.rates);
   fill_inputs(space, mlp, channels, batch, CodesView<T, MemorySpace>(buffers.codes),
               CodesView<T, MemorySpace>(buffers.rates), buffers.H[0]);
+  if (buffers.transposed_weights.extent(0) > 0) transpose_weights(space, mlp, buffers.transposed_weights);
   for (int l = 0; l < L; ++l)
     layer_forward(space, mlp, l, channels, buffers.H[l], buffers.A[l],
-                  l + 1 < L ? buffers.H[l + 1] : Activations<T, MemorySpace>());
+                  l + 1 < L ? buffers.H[l + 1] : Activations<T, MemorySpace>(),
+                  Kokkos::View<const T*, MemorySpace>(buffers.transposed_weights));
   const LossTerms<T> terms = loss_and_output_adjoint(space, mlp, channels, weights, batch, buffers.A[L - 1],
                                                      with_gradient ? buffers.bar[0] : Activations<T, MemorySpace>());
   if (!with_gradient) return terms;
