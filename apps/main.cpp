@@ -154,6 +154,21 @@ int main(int argc, char** argv) {
   bench_fom->add_flag("--json", bench_json, "One JSON record on stdout");
   bench_fom->footer("Example: mpmrom bench fom scenes/cylinder_1e6.toml --p2g scatter --json");
 
+  mpmrom::NnBenchmarkSettings nn_bench;
+  auto* bench_nn = bench->add_subcommand("nn", "Network kernels: forward-with-Jacobians evaluations/s, training samples/s");
+  bench_nn->add_option("--latent", nn_bench.latent_dim, "Latent dimension r")->capture_default_str();
+  bench_nn->add_option("--width", nn_bench.width, "Hidden units per layer")->capture_default_str();
+  bench_nn->add_option("--depth", nn_bench.depth, "Affine layers")->capture_default_str();
+  bench_nn->add_option("--points", nn_bench.points, "Points per evaluation batch")->capture_default_str();
+  bench_nn->add_option("--codes", nn_bench.codes, "Latent codes per evaluation batch (rollouts)")->capture_default_str();
+  bench_nn->add_option("--batch-snapshots", nn_bench.batch_snapshots, "Training minibatch: snapshots")
+      ->capture_default_str();
+  bench_nn->add_option("--points-per-snapshot", nn_bench.points_per_snapshot, "Training minibatch: points each")
+      ->capture_default_str();
+  bench_nn->add_option("--repeats", nn_bench.repeats, "Timed repetitions")->check(CLI::PositiveNumber);
+  bench_nn->add_flag("--json", bench_json, "One JSON record on stdout");
+  bench_nn->footer("Example: mpmrom bench nn --codes 1024 --json");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -223,6 +238,24 @@ int main(int argc, char** argv) {
         std::cout << record.dump() << "\n";
       else
         std::cout << record.dump(2) << "\n";
+    }
+    if (*bench_nn) {
+      const auto result = mpmrom::bench_nn(nn_bench);
+      auto record = mpmrom::benchmark_record("nn_kernels", "random");
+      record["latent_dim"] = nn_bench.latent_dim;
+      record["width"] = nn_bench.width;
+      record["depth"] = nn_bench.depth;
+      record["evaluation_batch"] = result.evaluations;
+      record["flops_per_evaluation"] = result.flops_per_evaluation;
+      record["nn_jacobian_evaluations_per_s"] = result.evaluations / result.evaluation_seconds;
+      record["nn_jacobian_gflops_per_s"] =
+          result.evaluations * result.flops_per_evaluation / result.evaluation_seconds * 1e-9;
+      record["training_batch_samples"] = result.training_samples;
+      record["flops_per_training_sample"] = result.flops_per_training_sample;
+      record["training_samples_per_s"] = result.training_samples / result.training_step_seconds;
+      record["training_gflops_per_s"] =
+          result.training_samples * result.flops_per_training_sample / result.training_step_seconds * 1e-9;
+      std::cout << (bench_json ? record.dump() : record.dump(2)) << "\n";
     }
     if (*info) {
       const auto runtime = mpmrom::runtime_info();
