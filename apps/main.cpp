@@ -137,6 +137,8 @@ int main(int argc, char** argv) {
   train->add_option("--checkpoint-seconds", training.checkpoint_seconds, "Seconds between checkpoints (MODEL.h5.ckpt)")
       ->capture_default_str();
   train->add_flag("--resume", resume, "Continue from MODEL.h5.ckpt, left by a run that was stopped");
+  bool train_json = false;
+  train->add_flag("--json", train_json, "Print the model's settings and errors as one JSON object on stdout");
   train->footer("Example: mpmrom train data/poke --out poke_model.h5\n"
                 "Checkpoints go to MODEL.h5.ckpt while training and are removed once MODEL.h5 is written.");
 
@@ -211,6 +213,9 @@ int main(int argc, char** argv) {
       mpmrom::save_model(model_path, model);
       std::error_code ignored;
       std::filesystem::remove(checkpoint, ignored);
+      if (train_json)
+        std::cout << nlohmann::json{{"model", model_path}, {"settings", model.settings}, {"errors", model.errors}}.dump()
+                  << "\n";
       if (!quiet) {
         std::cerr << "mpmrom train: wrote " << model_path << "\n";
         for (const char* split : {"train", "validation_points", "test"}) {

@@ -8,4 +8,5 @@ build_dir=$("$here/scripts/build.sh" double)
 export OMP_PROC_BIND=${OMP_PROC_BIND:-spread} OMP_PLACES=${OMP_PLACES:-threads}
 "$build_dir/apps/mpmrom" info
 "$build_dir/apps/mpmrom" sweep "$here/scenes/poke_cylinder.toml" --out "$here/out/poke_cylinder"
-echo "main: wrote $here/out/poke_cylinder/design.csv and runs/*.h5 (open runs/*.xmf in ParaView)" >&2
+"$build_dir/apps/mpmrom" train "$here/out/poke_cylinder" --out "$here/out/poke_cylinder/model.h5"
+echo "main: wrote $here/out/poke_cylinder/design.csv, runs/*.h5 (open runs/*.xmf in ParaView) and model.h5" >&2
