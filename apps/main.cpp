@@ -138,7 +138,7 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   train->add_flag("--resume", resume, "Continue from MODEL.h5.ckpt, left by a run that was stopped");
   bool train_json = false;
-  train->add_flag("--json", train_json, "Print the model's settings and errors as one JSON object on stdout");
+  train->add_flag("--json", train_json, "Print a benchmark record (device, time, settings, errors) as one JSON object on stdout");
   train->footer("Example: mpmrom train data/poke --out poke_model.h5\n"
                 "Checkpoints go to MODEL.h5.ckpt while training and are removed once MODEL.h5 is written.");
 
@@ -213,9 +213,19 @@ int main(int argc, char** argv) {
       mpmrom::save_model(model_path, model);
       std::error_code ignored;
       std::filesystem::remove(checkpoint, ignored);
-      if (train_json)
-        std::cout << nlohmann::json{{"model", model_path}, {"settings", model.settings}, {"errors", model.errors}}.dump()
-                  << "\n";
+      if (train_json) {
+        // a benchmark record (SPEC.md) of the training run, with the model's settings and errors
+        auto record = mpmrom::benchmark_record("train", model.scene_name);
+        record["model"] = model_path;
+        record["particles"] = model.num_points();
+        record["training_runs"] = data.train.runs.size();
+        record["training_snapshots"] = model.num_codes();
+        record["test_runs"] = data.test.runs.size();
+        record["training_seconds"] = model.errors["training_seconds"];
+        record["settings"] = model.settings;
+        record["errors"] = model.errors;
+        std::cout << record.dump() << "\n";
+      }
       if (!quiet) {
         std::cerr << "mpmrom train: wrote " << model_path << "\n";
         for (const char* split : {"train", "validation_points", "test"}) {
