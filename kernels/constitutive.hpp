@@ -72,7 +72,14 @@ KOKKOS_INLINE_FUNCTION Mat3<T> neo_hookean_kirchhoff(const ElasticMaterial<T>& m
   const T det = determinant(F);
   const T j = math::max(det, neo_hookean_min_jacobian<T>());
   const T diagonal = (m.lambda * math::log(j) - m.mu) * (det / j);
-  Mat3<T> tau = m.mu * multiply_transposed(F, F);
+  // mu F F^T, each off-diagonal entry computed once and mirrored: exactly symmetric whatever FMA contraction does
+  Mat3<T> tau;
+  for (int a = 0; a < 3; ++a)
+    for (int b = a; b < 3; ++b) {
+      const T s = m.mu * (F(a, 0) * F(b, 0) + F(a, 1) * F(b, 1) + F(a, 2) * F(b, 2));
+      tau(a, b) = s;
+      tau(b, a) = s;
+    }
   for (int i = 0; i < 3; ++i) tau(i, i) += diagonal;
   return tau;
 }
