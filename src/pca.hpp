@@ -1,4 +1,5 @@
-// Principal components on the host (Eigen), for initialising the auto-decoder's latent codes.
+// Principal components on the host, for initialising the auto-decoder's latent codes. Written out (Gram matrix,
+// subspace iteration, Jacobi) rather than with Eigen: Eigen's blocked products crashed in the CUDA build's host code.
 #pragma once
 
 #include <cstddef>
