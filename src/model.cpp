@@ -69,11 +69,7 @@ void save_model(const std::string& path, const Model& m, const OptimizerState* o
   AtomicFile out(path);
   {
     hdf5::File file = hdf5::File::create(out.temporary_path());
-    file.set_string_attribute("format", model_format);
-    file.set_integer_attribute("format_version", model_format_version);
-    file.set_string_attribute("precision", MPMROM_PRECISION_NAME);
-    file.set_string_attribute("mpmrom_version", MPMROM_VERSION_STRING);
-    file.set_string_attribute("git_commit", git_commit());
+    impl::write_file_identity(file, model_format, model_format_version);
     file.set_string_attribute("scene_name", m.scene_name);
     file.set_string_attribute("scene", m.scene_text);
     file.set_string_attribute("settings", m.settings.dump());

@@ -143,11 +143,7 @@ SnapshotWriter::SnapshotWriter(const std::string& path, const SnapshotHeader& he
       v_(file_.create_growing_dataset("v", stored_element, {num_points, 3})),
       F_(file_.create_growing_dataset("F", stored_element, {num_points, 3, 3})),
       C_(file_.create_growing_dataset("C", stored_element, {num_points, 3, 3})) {
-  file_.set_string_attribute("format", snapshot_format);
-  file_.set_integer_attribute("format_version", snapshot_format_version);
-  file_.set_string_attribute("precision", MPMROM_PRECISION_NAME);
-  file_.set_string_attribute("mpmrom_version", MPMROM_VERSION_STRING);
-  file_.set_string_attribute("git_commit", git_commit());
+  impl::write_file_identity(file_, snapshot_format, snapshot_format_version);
   file_.set_string_attribute("scene_name", header.scene_name);
   file_.set_string_attribute("scene", header.scene_text);
   file_.set_double_attribute("dx", header.dx);

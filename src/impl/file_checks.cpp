@@ -1,6 +1,17 @@
 #include "impl/file_checks.hpp"
 
+#include "mpmrom_config.hpp"
+#include "runtime.hpp"
+
 namespace mpmrom::impl {
+
+void write_file_identity(hdf5::File& file, const std::string& format, int format_version) {
+  file.set_string_attribute("format", format);
+  file.set_integer_attribute("format_version", format_version);
+  file.set_string_attribute("precision", MPMROM_PRECISION_NAME);
+  file.set_string_attribute("mpmrom_version", MPMROM_VERSION_STRING);
+  file.set_string_attribute("git_commit", git_commit());
+}
 
 std::vector<double> read_checked(const std::string& path, const hdf5::Dataset& dataset,
                                  const std::vector<std::size_t>& expected_shape, const std::string& expectation) {

@@ -66,6 +66,9 @@ void require_positive(const std::string& path, const std::string& what, const T*
   }
 }
 
+// The identity every mpmrom file carries: format tag and version, precision, and the build that wrote it.
+void write_file_identity(hdf5::File& file, const std::string& format, int format_version);
+
 // Reads a dataset after checking its shape, and checks that every value is finite.
 std::vector<double> read_checked(const std::string& path, const hdf5::Dataset& dataset,
                                  const std::vector<std::size_t>& expected_shape, const std::string& expectation);
