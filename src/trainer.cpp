@@ -57,6 +57,25 @@ IndexVector upload_indices(const std::string& label, const std::vector<int>& val
   return view;
 }
 
+// Index lists sent to the device every minibatch, through one allocation made up front (a device allocation per
+// step would cost more than the step on a GPU).
+class IndexStaging {
+ public:
+  IndexStaging(const std::string& label, std::size_t capacity)
+      : device_(label, capacity), host_(Kokkos::create_mirror_view(device_)) {}
+  Kokkos::View<const int*, MemorySpace> upload(const std::vector<int>& values) {
+    if (values.size() > device_.extent(0)) throw std::logic_error("IndexStaging: more indices than its capacity");
+    std::copy(values.begin(), values.end(), host_.data());
+    const auto range = Kokkos::make_pair(std::size_t(0), values.size());
+    Kokkos::deep_copy(Kokkos::subview(device_, range), Kokkos::subview(host_, range));
+    return Kokkos::subview(device_, range);
+  }
+
+ private:
+  IndexVector device_;
+  IndexVector::HostMirror host_;
+};
+
 template <class View>
 std::vector<double> download(const View& view) {
   auto host = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), view);
@@ -384,10 +403,17 @@ Model train_model(const TrainingData& data, const TrainingSettings& settings, co
     optimizer.second_moment = download(second_moment);
   };
 
+  const int validation_group = std::max(1, 4096 / std::max(int(validation_points.size()), 1));
+  IndexStaging batch_snapshots("mpmrom::train::batch_snapshot",
+                               std::size_t(std::max(settings.batch_snapshots, validation_group)));
+  IndexStaging batch_points("mpmrom::train::batch_point",
+                            std::max(std::size_t(settings.batch_snapshots) * per_snapshot,
+                                     std::size_t(validation_group) * validation_points.size()));
+
   const auto validation_loss = [&]() {
     nn::LossTerms<double> sum;
     const int count = int(validation_points.size());
-    const int group = std::max(1, 4096 / std::max(count, 1));
+    const int group = validation_group;
     double n = 0;
     for (int begin = 0; begin < S; begin += group) {
       const int snaps = std::min(group, S - begin);
@@ -397,8 +423,8 @@ Model train_model(const TrainingData& data, const TrainingSettings& settings, co
         point_ids.insert(point_ids.end(), validation_points.begin(), validation_points.end());
       }
       batch.samples_per_snapshot = count;
-      batch.snapshot = upload_indices("mpmrom::train::batch_snapshot", snapshot_ids);
-      batch.point = upload_indices("mpmrom::train::batch_point", point_ids);
+      batch.snapshot = batch_snapshots.upload(snapshot_ids);
+      batch.point = batch_points.upload(point_ids);
       const auto terms = nn::minibatch_loss(space, mlp, table, channels, weights, batch, buffers.get(snaps, count),
                                             Vector());
       accumulate(sum, terms, snaps * count);
@@ -437,8 +463,8 @@ Model train_model(const TrainingData& data, const TrainingSettings& settings, co
         }
       }
       batch.samples_per_snapshot = per_snapshot;
-      batch.snapshot = upload_indices("mpmrom::train::batch_snapshot", snapshot_ids);
-      batch.point = upload_indices("mpmrom::train::batch_point", point_ids);
+      batch.snapshot = batch_snapshots.upload(snapshot_ids);
+      batch.point = batch_points.upload(point_ids);
       const auto terms =
           nn::minibatch_loss(space, mlp, table, channels, weights, batch, buffers.get(snaps, per_snapshot), grad);
       ++step;
@@ -556,6 +582,11 @@ std::vector<double> project_codes(const Model& model, const Snapshot& run) {
   Cube g("mpmrom::project::g", frames, P, 3), velocity;
   Quad F("mpmrom::project::F", frames, P, 3, 3), J("mpmrom::project::J", frames, P, 3, r);
   Matrix device_codes("mpmrom::project::codes", frames, r);
+  auto host_codes = Kokkos::create_mirror_view(device_codes);
+  const auto set_codes = [&](const std::vector<double>& values) {
+    for (std::size_t i = 0; i < values.size(); ++i) host_codes.data()[i] = T(values[i]);
+    Kokkos::deep_copy(device_codes, host_codes);
+  };
   const auto cost_of = [&](const std::vector<double>& positions, int f) {
     double cost = 0;
     for (int i = 0; i < P * 3; ++i) {
@@ -567,11 +598,7 @@ std::vector<double> project_codes(const Model& model, const Snapshot& run) {
   std::vector<double> mu(frames, 1e-3), cost(frames);
   std::vector<bool> converged(frames, false);
   for (int iteration = 0; iteration < 100; ++iteration) {
-    {
-      auto host = Kokkos::create_mirror_view(device_codes);
-      for (std::size_t i = 0; i < codes.size(); ++i) host.data()[i] = T(codes[i]);
-      Kokkos::deep_copy(device_codes, host);
-    }
+    set_codes(codes);
     nn::evaluate_with_jacobians(space, mlp, nn::PointsView<T, MemorySpace>(X),
                                 nn::CodesView<T, MemorySpace>(device_codes), nn::CodesView<T, MemorySpace>(), g, F, J,
                                 velocity);
@@ -605,11 +632,7 @@ std::vector<double> project_codes(const Model& model, const Snapshot& run) {
       for (int a = 0; a < r; ++a) trial[f * r + a] += delta[a];
     }
     // Accept each frame's step if it lowers that frame's misfit, else damp more.
-    {
-      auto host = Kokkos::create_mirror_view(device_codes);
-      for (std::size_t i = 0; i < trial.size(); ++i) host.data()[i] = T(trial[i]);
-      Kokkos::deep_copy(device_codes, host);
-    }
+    set_codes(trial);
     nn::evaluate(space, mlp, nn::PointsView<T, MemorySpace>(X), nn::CodesView<T, MemorySpace>(device_codes), g);
     const auto g_trial = download(g);
     bool all_done = true;
