@@ -10,8 +10,12 @@
 #include <unistd.h>
 
 #include "bench.hpp"
+#include "evaluation.hpp"
+#include "rom.hpp"
+#include "rom_file.hpp"
 #include "mpmrom_config.hpp"
 #include "runtime.hpp"
+#include "sampling.hpp"
 #include "simulate.hpp"
 #include "trainer.hpp"
 
@@ -61,6 +65,64 @@ void report_training(const mpmrom::TrainingProgress& p, bool quiet) {
   if (p.validated) std::fprintf(stderr, "  validation %.3e", p.validation.total);
   std::fprintf(stderr, "  lr %.1e  %.3g samples/s  %s left\n", p.learning_rate, p.samples_per_second,
                duration_string(p.seconds_left).c_str());
+}
+
+// Rollout cases from a parameter file (design.csv form: a column per parameter name, optional split) or, without
+// one, the scene's design (or the scene as it is when it has none).
+std::vector<mpmrom::RolloutCase> rollout_cases(const mpmrom::Scene& scene, const std::string& params_path,
+                                               std::vector<std::string>& names) {
+  std::vector<mpmrom::RolloutCase> cases;
+  names = scene.design.names;
+  if (names.empty())
+    for (const auto& [name, value] : scene.parameters) names.push_back(name);
+  if (!params_path.empty()) {
+    std::vector<std::vector<std::string>> columns;
+    for (const auto& name : names) columns.push_back(mpmrom::design_column(params_path, name));
+    std::vector<std::string> splits;
+    try {
+      splits = mpmrom::design_column(params_path, "split");
+    } catch (const std::exception&) {
+      // no split column: the rollouts' split stays unknown
+    }
+    const std::size_t rows = columns.empty() ? 0 : columns.front().size();
+    for (std::size_t row = 0; row < rows; ++row) {
+      mpmrom::RolloutCase c;
+      for (std::size_t k = 0; k < names.size(); ++k) {
+        try {
+          std::size_t used = 0;
+          c.values.push_back(std::stod(columns[k][row], &used));
+          if (used != columns[k][row].size()) throw std::invalid_argument("trailing characters");
+        } catch (const std::exception&) {
+          throw std::runtime_error(params_path + ": row " + std::to_string(row + 1) + ", column '" + names[k] +
+                                   "': '" + columns[k][row] + "' is not a number");
+        }
+      }
+      if (!splits.empty()) c.split = splits[row];
+      cases.push_back(c);
+    }
+    if (cases.empty()) throw std::runtime_error(params_path + ": no parameter rows");
+    return cases;
+  }
+  if (!scene.design.names.empty()) {
+    const auto runs = scene.design.all_runs();
+    for (std::size_t r = 0; r < runs.size(); ++r) {
+      bool test = false;
+      for (const int t : scene.design.test_runs) test = test || std::size_t(t) == r;
+      cases.push_back({runs[r], test ? "test" : "train"});
+    }
+    return cases;
+  }
+  mpmrom::RolloutCase c;
+  for (const auto& name : names) c.values.push_back(scene.parameters.at(name));
+  cases.push_back(c);
+  return cases;
+}
+
+void print_metrics(const char* label, const nlohmann::json& e) {
+  std::fprintf(stderr, "  %-8s position %.4f %%  displacement %.3f %%  velocity %.3f %%  F %.4f %%  strain %.3f %%\n", label,
+               100 * e["position_error"].get<double>(), 100 * e["displacement_error"].get<double>(),
+               100 * e["velocity_error"].get<double>(), 100 * e["F_error"].get<double>(),
+               100 * e["strain_error"].get<double>());
 }
 
 }  // namespace
@@ -141,6 +203,57 @@ int main(int argc, char** argv) {
   train->add_flag("--json", train_json, "Print a benchmark record (device, time, settings, errors) as one JSON object on stdout");
   train->footer("Example: mpmrom train data/poke --out poke_model.h5\n"
                 "Checkpoints go to MODEL.h5.ckpt while training and are removed once MODEL.h5 is written.");
+
+  mpmrom::RomSettings rom_settings;
+  std::string rom_method = "point", rom_selection = "region", params_path, rom_path, decode_mode = "none";
+  std::vector<std::string> rom_data;
+  double decode_spacing = 0;
+  bool rollout_json = false;
+  auto* rollout = app.add_subcommand("rollout", "Run the reduced model: one or many rollouts in one batch -> ROM.h5");
+  rollout->add_option("model", model_path, "Model file (from mpmrom train)")->required()->check(CLI::ExistingFile);
+  rollout->add_option("scene", scene_path, "Scene file (TOML) the model was trained on")
+      ->required()
+      ->check(CLI::ExistingFile);
+  rollout->add_option("--out", rom_path, "ROM file to write (HDF5)")->required();
+  rollout->add_option("--method", rom_method, "point (Algorithm 1, material-point-centric) or node (Algorithm 2)")
+      ->capture_default_str();
+  rollout->add_option("--samples", rom_settings.samples, "Sample material points for the projection; 0: all points")
+      ->capture_default_str();
+  rollout->add_option("--selection", rom_selection, "Sample selection: region, random or greedy")
+      ->capture_default_str();
+  rollout->add_option("--data", rom_data, "Full-order training runs (sweep directory), for --selection greedy");
+  rollout->add_option("--seed", rom_settings.seed, "Seed of --selection random")->capture_default_str();
+  rollout->add_option("--params", params_path, "Parameter file (design.csv form); default: the scene's design")
+      ->check(CLI::ExistingFile);
+  rollout->add_option("--cfl", rom_settings.cfl, "Time step as a fraction of the CFL limit (0: the scene's)")
+      ->capture_default_str();
+  rollout->add_option("--margin", rom_settings.envelope_margin, "Cells of slack around the training motion")
+      ->capture_default_str();
+  rollout->add_option("--quadrature", rom_settings.quadrature_order, "Algorithm 2: Gauss points per axis per cell")
+      ->capture_default_str();
+  rollout->add_option("--newton-tolerance", rom_settings.newton_tolerance, "Algorithm 2: inversion tolerance, cells")
+      ->capture_default_str();
+  rollout->add_option("--projection-iterations", rom_settings.projection_iterations,
+                      "Re-projections with dg/dxhat at the trial next state (0: the paper's, at xhat(t_n))")
+      ->capture_default_str();
+  rollout->add_option("--decode", decode_mode,
+                      "Decoded fields to store: none, reference (the model's points) or lattice (--decode-spacing)")
+      ->capture_default_str();
+  rollout->add_option("--decode-spacing", decode_spacing, "Lattice spacing (m) of --decode lattice");
+  rollout->add_flag("--json", rollout_json, "Print a benchmark record (timings, hyper-reduction) on stdout");
+  rollout->footer("Example: mpmrom rollout poke_model.h5 scenes/poke_cylinder.toml --out rom.h5 --method node");
+
+  std::vector<std::string> references;
+  std::string evaluate_model;
+  bool evaluate_json = false;
+  auto* evaluate = app.add_subcommand("evaluate", "Errors of the rollouts in ROM.h5 against full-order reference runs");
+  evaluate->add_option("rom", rom_path, "ROM file (from mpmrom rollout)")->required()->check(CLI::ExistingFile);
+  evaluate->add_option("references", references, "Sweep directories or snapshot files")
+      ->required()
+      ->check(CLI::ExistingPath);
+  evaluate->add_option("--model", evaluate_model, "Model file (default: the one ROM.h5 names)");
+  evaluate->add_flag("--json", evaluate_json, "Print the errors as one JSON object on stdout");
+  evaluate->footer("Example: mpmrom evaluate rom.h5 data/poke --json");
 
   long bench_steps = 20, bench_warmup = 3;
   bool bench_json = false;
@@ -236,6 +349,119 @@ int main(int argc, char** argv) {
                        100 * e["velocity_error"].get<double>(), 100 * e["F_error"].get<double>(),
                        100 * e["strain_error"].get<double>());
         }
+      }
+    }
+    if (*rollout) {
+      rom_settings.method = mpmrom::rom_method_from_string(rom_method);
+      rom_settings.selection = mpmrom::sample_selection_from_string(rom_selection);
+      rom_settings.validate();
+      const mpmrom::Model model = mpmrom::load_model(model_path);
+      const mpmrom::Scene scene = mpmrom::load_scene(scene_path);
+      std::vector<std::string> names;
+      const auto cases = rollout_cases(scene, params_path, names);
+      mpmrom::TrainingData data;
+      if (!rom_data.empty()) data = mpmrom::load_training_data(rom_data);
+      const auto samples = mpmrom::select_samples(model, scene, rom_settings, rom_data.empty() ? nullptr : &data);
+      const auto reduction = mpmrom::build_hyper_reduction(model, scene, rom_settings, samples);
+      if (!quiet)
+        std::cerr << "mpmrom rollout: " << cases.size() << " rollout(s), method " << rom_method << ", "
+                  << reduction.summary().dump() << "\n";
+      const auto result = mpmrom::run_rollouts(
+          model, scene_path, names, cases, rom_settings, reduction, [quiet](const mpmrom::RomProgress& p) {
+            if (quiet || (!isatty(STDERR_FILENO) && p.frame % std::max(1, p.frames / 5) != 0)) return;
+            std::fprintf(stderr, "  frame %d/%d  t = %.4f s  %ld steps  %.3g s\n", p.frame, p.frames, p.time, p.steps,
+                         p.seconds);
+          });
+      mpmrom::RomFile file;
+      file.result = result;
+      file.model_path = std::filesystem::absolute(model_path).string();
+      file.model_checksum = mpmrom::model_checksum(model);
+      file.scene_name = scene.name;
+      file.scene_text = scene.source_text;
+      file.settings = rom_settings.to_json();
+      file.hyper_reduction = reduction.summary();
+      file.samples = reduction.samples;
+      const double rollout_steps = double(result.steps) * double(cases.size());
+      file.timing = {{"steps", result.steps},
+                     {"rollouts", cases.size()},
+                     {"setup_seconds", result.setup_seconds},
+                     {"step_seconds_total", result.step_seconds},
+                     {"rom_step_seconds", result.steps > 0 ? result.step_seconds / result.steps : 0.0},
+                     {"rom_rollout_steps_per_s", result.step_seconds > 0 ? rollout_steps / result.step_seconds : 0.0}};
+      if (decode_mode != "none") {
+        if (decode_mode == "reference") {
+          file.decoded_X = model.X;
+        } else if (decode_mode == "lattice") {
+          if (!(decode_spacing > 0)) throw std::invalid_argument("--decode lattice needs --decode-spacing > 0");
+          for (const auto& body : scene.bodies)
+            for (const auto& p : mpmrom::lattice_points(body, decode_spacing))
+              file.decoded_X.insert(file.decoded_X.end(), p.begin(), p.end());
+        } else {
+          throw std::invalid_argument("--decode must be none, reference or lattice, not '" + decode_mode + "'");
+        }
+        const std::size_t frames = result.times.size(), r = std::size_t(result.latent_dim);
+        for (std::size_t b = 0; b < cases.size(); ++b) {
+          const std::vector<double> xhat(result.xhat.begin() + b * frames * r, result.xhat.begin() + (b + 1) * frames * r);
+          const std::vector<double> xhatdot(result.xhatdot.begin() + b * frames * r,
+                                            result.xhatdot.begin() + (b + 1) * frames * r);
+          const auto fields = mpmrom::decode(model, file.decoded_X, xhat, xhatdot);
+          file.decoded_x.insert(file.decoded_x.end(), fields.x.begin(), fields.x.end());
+          file.decoded_v.insert(file.decoded_v.end(), fields.v.begin(), fields.v.end());
+          file.decoded_F.insert(file.decoded_F.end(), fields.F.begin(), fields.F.end());
+        }
+      }
+      mpmrom::save_rom(rom_path, file);
+      int failed = 0;
+      for (std::size_t b = 0; b < cases.size(); ++b) {
+        const auto& o = result.outcomes[b];
+        if (!o.message.empty()) {
+          ++failed;
+          std::cerr << "mpmrom rollout: rollout " << b << " " << o.message << "\n";
+        }
+      }
+      if (!quiet) {
+        double worst = 0;
+        long regularized = 0, inversion = 0;
+        for (const auto& o : result.outcomes) {
+          worst = std::max(worst, o.max_condition);
+          regularized += o.regularized_steps;
+          inversion += o.inversion_failures;
+        }
+        std::fprintf(stderr,
+                     "mpmrom rollout: wrote %s: %zu rollouts x %ld steps in %.3f s (%.3g s per step, %.3g "
+                     "rollout-steps/s); largest normal-equation condition estimate %.3g, %ld regularised steps, "
+                     "%ld failed inversions\n",
+                     rom_path.c_str(), cases.size(), result.steps, result.step_seconds,
+                     file.timing["rom_step_seconds"].get<double>(), file.timing["rom_rollout_steps_per_s"].get<double>(),
+                     worst, regularized, inversion);
+      }
+      if (rollout_json) {
+        auto record = mpmrom::benchmark_record("rom_rollout", scene.name);
+        record["particles"] = model.num_points();
+        record["model"] = model_path;
+        record["latent_dim"] = model.latent_dim;
+        record["settings"] = file.settings;
+        record["hyper_reduction"] = file.hyper_reduction;
+        for (const auto& [key, value] : file.timing.items()) record[key] = value;
+        std::cout << record.dump() << "\n";
+      }
+      if (failed > 0) return 3;
+    }
+    if (*evaluate) {
+      const mpmrom::RomFile rom = mpmrom::load_rom(rom_path);
+      const std::string path = evaluate_model.empty() ? rom.model_path : evaluate_model;
+      const mpmrom::Model model = mpmrom::load_model(path);
+      if (mpmrom::model_checksum(model) != rom.model_checksum)
+        throw std::runtime_error(path + ": not the model " + rom_path + " was run with (its weights differ)");
+      const auto data = mpmrom::load_training_data(references);
+      const auto errors = mpmrom::evaluate_rom(rom, model, data);
+      if (evaluate_json) std::cout << errors.dump() << "\n";
+      if (!quiet) {
+        std::cerr << "mpmrom evaluate: " << errors["matched"] << " of " << errors["rollouts"]
+                  << " rollouts matched a reference run\n";
+        print_metrics("all", errors);
+        print_metrics("train", errors["train"]);
+        print_metrics("test", errors["test"]);
       }
     }
     if (*bench_fom) {

@@ -31,6 +31,27 @@ KOKKOS_INLINE_FUNCTION void apply_contact(Vec3<real_t>& v, Contact contact, int 
   }
 }
 
+// The node velocity after the boundary conditions, for node (i, j, k) = idx with velocity v (gravity included).
+// Shared by the full-order grid update and the reduced model's node update.
+KOKKOS_INLINE_FUNCTION Vec3<real_t> constrained_node_velocity(Vec3<real_t> v, const int idx[3],
+                                                              const GridGeometry<real_t>& grid,
+                                                              const GridBoundary& boundary) {
+  for (int d = 0; d < 3; ++d) {
+    if (idx[d] < 2) apply_contact(v, boundary.walls, d, real_t(1));
+    if (idx[d] > grid.dims[d] - 3) apply_contact(v, boundary.walls, d, real_t(-1));
+  }
+  const Vec3<real_t> x = grid.position(idx[0], idx[1], idx[2]);
+  if (boundary.ground && x[2] <= boundary.ground_height) apply_contact(v, boundary.ground_contact, 2, real_t(1));
+  for (int r = 0; r < boundary.num_dirichlet; ++r) {
+    bool inside = true;
+    for (int d = 0; d < 3; ++d)
+      inside = inside && x[d] >= boundary.dirichlet_box[6 * r + d] && x[d] <= boundary.dirichlet_box[6 * r + 3 + d];
+    if (inside)
+      for (int d = 0; d < 3; ++d) v[d] = boundary.dirichlet_velocity[3 * r + d];
+  }
+  return v;
+}
+
 template <class ExecutionSpace, class MemorySpace>
 void grid_update(const ExecutionSpace& space, const GridNodeView<MemorySpace>& nodes, const GridGeometry<real_t>& grid,
                  const Vec3<real_t>& gravity, const GridBoundary& boundary, real_t dt) {
@@ -43,24 +64,12 @@ void grid_update(const ExecutionSpace& space, const GridNodeView<MemorySpace>& n
           return;
         }
         const real_t inv_m = real_t(1) / m;
-        Vec3<real_t> v{{nodes(node, 1) * inv_m + dt * gravity[0], nodes(node, 2) * inv_m + dt * gravity[1],
-                        nodes(node, 3) * inv_m + dt * gravity[2]}};
+        const Vec3<real_t> v{{nodes(node, 1) * inv_m + dt * gravity[0], nodes(node, 2) * inv_m + dt * gravity[1],
+                              nodes(node, 3) * inv_m + dt * gravity[2]}};
         int idx[3];
         grid.indices(node, idx[0], idx[1], idx[2]);
-        for (int d = 0; d < 3; ++d) {
-          if (idx[d] < 2) apply_contact(v, boundary.walls, d, real_t(1));
-          if (idx[d] > grid.dims[d] - 3) apply_contact(v, boundary.walls, d, real_t(-1));
-        }
-        const Vec3<real_t> x = grid.position(idx[0], idx[1], idx[2]);
-        if (boundary.ground && x[2] <= boundary.ground_height) apply_contact(v, boundary.ground_contact, 2, real_t(1));
-        for (int r = 0; r < boundary.num_dirichlet; ++r) {
-          bool inside = true;
-          for (int d = 0; d < 3; ++d)
-            inside = inside && x[d] >= boundary.dirichlet_box[6 * r + d] && x[d] <= boundary.dirichlet_box[6 * r + 3 + d];
-          if (inside)
-            for (int d = 0; d < 3; ++d) v[d] = boundary.dirichlet_velocity[3 * r + d];
-        }
-        for (int d = 0; d < 3; ++d) nodes(node, d + 1) = v[d];
+        const Vec3<real_t> constrained = constrained_node_velocity(v, idx, grid, boundary);
+        for (int d = 0; d < 3; ++d) nodes(node, d + 1) = constrained[d];
       });
 }
 

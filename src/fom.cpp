@@ -6,7 +6,6 @@
 #include "sampling.hpp"
 
 namespace mpmrom {
-namespace {
 
 Contact to_contact(ContactKind kind) {
   switch (kind) {
@@ -20,7 +19,7 @@ Contact to_contact(ContactKind kind) {
   return Contact::Separate;
 }
 
-GridGeometry<real_t> make_grid(const Scene& scene) {
+GridGeometry<real_t> grid_for_scene(const Scene& scene) {
   GridGeometry<real_t> grid;
   grid.dx = static_cast<real_t>(scene.dx);
   grid.inv_dx = static_cast<real_t>(1 / scene.dx);
@@ -34,16 +33,18 @@ GridGeometry<real_t> make_grid(const Scene& scene) {
   return grid;
 }
 
-}  // namespace
+ElasticMaterial<real_t> material_for_scene(const Scene& scene) {
+  return elastic_material<real_t>(scene.material.model == ElasticModelKind::NeoHookean ? ElasticModel::NeoHookean
+                                                                                       : ElasticModel::FixedCorotated,
+                                  static_cast<real_t>(scene.material.youngs_modulus),
+                                  static_cast<real_t>(scene.material.poisson_ratio));
+}
 
 FomSolver::FomSolver(const Scene& scene, P2GStrategy strategy)
     : scene_(scene),
       strategy_(strategy),
-      grid_(make_grid(scene)),
-      material_(elastic_material<real_t>(
-          scene.material.model == ElasticModelKind::NeoHookean ? ElasticModel::NeoHookean
-                                                               : ElasticModel::FixedCorotated,
-          static_cast<real_t>(scene.material.youngs_modulus), static_cast<real_t>(scene.material.poisson_ratio))),
+      grid_(grid_for_scene(scene)),
+      material_(material_for_scene(scene)),
       wave_speed_(stable_time_step_wave_speed(material_, static_cast<real_t>(scene.material.density))),
       outside_("mpmrom::fom::outside") {
   if (scene.forces.size() > static_cast<std::size_t>(kMaxExternalForces))

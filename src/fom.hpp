@@ -17,6 +17,11 @@ struct ParticleFrame {
   std::vector<real_t> x, v, F, C;
 };
 
+// The scene's background grid (throws beyond 2e9 nodes), its material, and its contact kinds as the kernels name them.
+GridGeometry<real_t> grid_for_scene(const Scene& scene);
+ElasticMaterial<real_t> material_for_scene(const Scene& scene);
+Contact to_contact(ContactKind kind);
+
 class FomSolver {
  public:
   using ExecutionSpace = Kokkos::DefaultExecutionSpace;

@@ -1,5 +1,6 @@
 #include "runtime.hpp"
 
+#include <cstdlib>
 #include <fstream>
 
 #include "kernels/compat/kokkos_compat.hpp"
@@ -30,7 +31,12 @@ std::string device_name() {
 
 }  // namespace
 
-KokkosSession::KokkosSession(int threads, int device) { compat::initialize(threads, device); }
+KokkosSession::KokkosSession(int threads, int device) {
+  // Kokkos' OpenMP backend prints a warning on stdout when OMP_PROC_BIND is unset, which would corrupt --json
+  // output; unset means no binding, so say so explicitly.
+  setenv("OMP_PROC_BIND", "false", 0);
+  compat::initialize(threads, device);
+}
 KokkosSession::~KokkosSession() { Kokkos::finalize(); }
 
 RuntimeInfo runtime_info() {

@@ -17,6 +17,7 @@
 #include "kernels/nn/mlp_train.hpp"
 #include "mpmrom_config.hpp"
 #include "bench.hpp"
+#include "impl/device_data.hpp"
 #include "pca.hpp"
 
 namespace mpmrom {
@@ -31,30 +32,13 @@ using Cube = Kokkos::View<T***, Kokkos::LayoutRight, MemorySpace>;
 using Quad = Kokkos::View<T****, Kokkos::LayoutRight, MemorySpace>;
 using IndexVector = Kokkos::View<int*, MemorySpace>;
 using Clock = std::chrono::steady_clock;
+using impl::device_mlp;
+using impl::download;
+using impl::upload;
+using impl::upload_indices;
 
 double seconds_since(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
-}
-
-template <class View>
-View upload(const std::string& label, const std::vector<double>& values, std::size_t n0, std::size_t n1 = 0,
-            std::size_t n2 = 0) {
-  View view;
-  if constexpr (View::rank == 1) view = View(label, n0);
-  if constexpr (View::rank == 2) view = View(label, n0, n1);
-  if constexpr (View::rank == 3) view = View(label, n0, n1, n2);
-  auto host = Kokkos::create_mirror_view(view);
-  for (std::size_t i = 0; i < values.size(); ++i) host.data()[i] = typename View::value_type(values[i]);
-  Kokkos::deep_copy(view, host);
-  return view;
-}
-
-IndexVector upload_indices(const std::string& label, const std::vector<int>& values) {
-  IndexVector view(label, values.size());
-  auto host = Kokkos::create_mirror_view(view);
-  std::copy(values.begin(), values.end(), host.data());
-  Kokkos::deep_copy(view, host);
-  return view;
 }
 
 // Index lists sent to the device every minibatch, through one allocation made up front (a device allocation per
@@ -75,31 +59,6 @@ class IndexStaging {
   IndexVector device_;
   IndexVector::HostMirror host_;
 };
-
-template <class View>
-std::vector<double> download(const View& view) {
-  auto host = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), view);
-  return std::vector<double>(host.data(), host.data() + host.size());
-}
-
-nn::Standardization<T> cast(const nn::Standardization<double>& s) {
-  nn::Standardization<T> out;
-  for (int d = 0; d < 3; ++d) {
-    out.input_mean[d] = T(s.input_mean[d]);
-    out.input_scale[d] = T(s.input_scale[d]);
-    out.output_mean[d] = T(s.output_mean[d]);
-    out.output_scale[d] = T(s.output_scale[d]);
-  }
-  return out;
-}
-
-nn::Mlp<T, MemorySpace> device_mlp(const Model& model, const Vector& params) {
-  nn::Mlp<T, MemorySpace> mlp;
-  mlp.layout = model.layout();
-  mlp.standardization = cast(model.standardization);
-  mlp.params = params;
-  return mlp;
-}
 
 // The finite-difference stencil of every snapshot's code rate: central inside a run, one-sided at its ends, zero
 // for a run of one frame. Snapshots are numbered run after run, frame after frame, from `base`.

@@ -1,0 +1,107 @@
+// The kinematics the reduced-order model needs from the deformation map at one material point (paper, equations
+// 4-6): position g(X; xhat), deformation gradient F = dg/dX, velocity v = dg/dxhat xhatdot, the rate of the
+// deformation gradient Fdot = d/dt F = (dF/dxhat) xhatdot (so that grad_x v = Fdot F^-1, APIC's affine matrix), and
+// on request dg/dxhat itself (the tangent space the velocities are projected on).
+//
+// Forward mode with second-order channels: alongside the primal value it carries tangents along X_0..X_2, along
+// xhatdot, and the mixed second derivatives d2/(dX_j dxhatdot), through each layer; dg/dxhat comes from three reverse
+// sweeps over the stored ELU slopes, as in SerialMlpForwardJacobian.
+#pragma once
+
+#include "kernels/nn/mlp.hpp"
+
+namespace mpmrom::nn {
+
+template <class T>
+struct PointKinematics {
+  T g[3];
+  T F[3][3];     // F[i][j] = dg_i / dX_j
+  T v[3];        // dg/dxhat xhatdot
+  T Fdot[3][3];  // d F / dt along xhatdot
+};
+
+// Channel layout of the forward sweep: 0 primal, 1-3 d/dX_j, 4 d/dxhatdot, 5-7 d2/(dX_j dxhatdot).
+inline constexpr int kinematics_channels = 8;
+
+// Parallelism contract: one thread, no team, no scratch; MaxWidth >= layout.widest. xhat and xhatdot point at r
+// contiguous values; dgdxhat, if not null, receives the 3 x r Jacobian row-major.
+template <int MaxWidth, class T, class MemorySpace>
+KOKKOS_INLINE_FUNCTION void SerialMlpKinematics(const Mlp<T, MemorySpace>& mlp, const T X[3], const T* xhat,
+                                                const T* xhatdot, PointKinematics<T>& out, T* dgdxhat) {
+  const MlpLayout& layout = mlp.layout;
+  const Standardization<T>& s = mlp.standardization;
+  const int L = layout.num_layers;
+  const int r = layout.latent_dim;
+  T slope[max_layers - 1][MaxWidth];  // elu'(a) of each hidden layer, for the reverse sweeps
+  T buffer[2][kinematics_channels][MaxWidth];
+  auto* h = buffer[0];
+  auto* next = buffer[1];
+  for (int c = 0; c < kinematics_channels; ++c)
+    for (int j = 0; j < 3 + r; ++j) h[c][j] = T(0);
+  for (int d = 0; d < 3; ++d) {
+    h[0][d] = (X[d] - s.input_mean[d]) / s.input_scale[d];
+    h[1 + d][d] = T(1) / s.input_scale[d];
+  }
+  for (int q = 0; q < r; ++q) {
+    h[0][3 + q] = xhat[q];
+    h[4][3 + q] = xhatdot[q];
+  }
+  for (int l = 0; l < L; ++l) {
+    const bool hidden = l + 1 < L;
+    for (int i = 0; i < layout.dims[l + 1]; ++i) {
+      T a[kinematics_channels];
+      a[0] = mlp.bias(l, i);
+      for (int c = 1; c < kinematics_channels; ++c) a[c] = T(0);
+      for (int j = 0; j < layout.dims[l]; ++j) {
+        const T w = mlp.weight(l, i, j);
+        for (int c = 0; c < kinematics_channels; ++c) a[c] += w * h[c][j];
+      }
+      if (!hidden) {
+        for (int c = 0; c < kinematics_channels; ++c) next[c][i] = a[c];
+        continue;
+      }
+      T value, d1;
+      elu_and_derivative(a[0], value, d1);
+      const T d2 = elu_second_derivative(a[0]);
+      slope[l][i] = d1;
+      next[0][i] = value;
+      for (int j = 0; j < 3; ++j) {
+        next[1 + j][i] = d1 * a[1 + j];
+        next[5 + j][i] = d2 * a[1 + j] * a[4] + d1 * a[5 + j];
+      }
+      next[4][i] = d1 * a[4];
+    }
+    auto* tmp = h;
+    h = next;
+    next = tmp;
+  }
+  for (int k = 0; k < 3; ++k) {
+    out.g[k] = X[k] + s.output_mean[k] + s.output_scale[k] * h[0][k];
+    out.v[k] = s.output_scale[k] * h[4][k];
+    for (int j = 0; j < 3; ++j) {
+      out.F[k][j] = (k == j ? T(1) : T(0)) + s.output_scale[k] * h[1 + j][k];
+      out.Fdot[k][j] = s.output_scale[k] * h[5 + j][k];
+    }
+  }
+  if (dgdxhat == nullptr) return;
+
+  T* adjoint = buffer[0][0];
+  T* spare = buffer[1][0];
+  for (int k = 0; k < 3; ++k) {
+    for (int j = 0; j < layout.dims[L - 1]; ++j) adjoint[j] = mlp.weight(L - 1, k, j);
+    for (int l = L - 2; l >= 0; --l) {
+      for (int i = 0; i < layout.dims[l + 1]; ++i) adjoint[i] *= slope[l][i];
+      for (int j = 0; j < layout.dims[l]; ++j) spare[j] = T(0);
+      for (int i = 0; i < layout.dims[l + 1]; ++i) {
+        const T a = adjoint[i];
+        for (int j = 0; j < layout.dims[l]; ++j) spare[j] += mlp.weight(l, i, j) * a;
+      }
+      T* tmp = adjoint;
+      adjoint = spare;
+      spare = tmp;
+    }
+    for (int q = 0; q < r; ++q) dgdxhat[k * r + q] = s.output_scale[k] * adjoint[3 + q];
+  }
+}
+
+}  // namespace mpmrom::nn

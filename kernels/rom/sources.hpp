@@ -1,0 +1,191 @@
+// The sources of the reduced model's particle-to-grid transfer: what each material point (Algorithm 1) or quadrature
+// point (Algorithm 2) hands to the grid nodes around it, evaluated from the manifold for every rollout of a batch.
+// A source is 25 numbers (source_* offsets below); its contribution to node i with weight w and gradient grad w is
+//   m_i += w m,   (m v)_i += w (p + A (x_i - x)) + S grad w,
+// the full-order P2G (kernels/p2g.hpp) with p = m v + dt m f (momentum and external impulse), A = m C (APIC, with
+// C = grad_x v = Fdot F^-1 from the manifold) and S = -dt V tau / J (V the current volume, tau the Kirchhoff stress).
+// Parallelism: one thread per (rollout, source).
+#pragma once
+
+#include "kernels/constitutive.hpp"
+#include "kernels/rom/inversion.hpp"
+#include "kernels/rom/loads.hpp"
+#include "kernels/rom/manifold.hpp"
+#include "kernels/rom/reference_domain.hpp"
+
+namespace mpmrom::rom {
+
+inline constexpr int source_x = 0, source_mass = 3, source_momentum = 4, source_affine = 7, source_stress = 16,
+                     source_size = 25;
+
+template <class MemorySpace>
+using SourceView = Kokkos::View<real_t***, Kokkos::LayoutRight, MemorySpace>;  // (rollouts, sources, source_size)
+template <class MemorySpace>
+using BatchMatrix = Kokkos::View<real_t**, Kokkos::LayoutRight, MemorySpace>;  // (rollouts, r) and similar
+template <class MemorySpace>
+using BatchVectors = Kokkos::View<real_t***, Kokkos::LayoutRight, MemorySpace>;  // (rollouts, points, 3)
+template <class MemorySpace>
+using BatchJacobians = Kokkos::View<real_t****, Kokkos::LayoutRight, MemorySpace>;  // (rollouts, points, 3, r)
+
+// Rollout status bits, set by the kernels where a problem occurs and reported by the driver.
+enum RolloutFlag : int {
+  flag_inverted = 1,          // det F <= 0 at a material or quadrature point
+  flag_not_finite = 2,        // a NaN or Inf in the state or the projected velocity
+  flag_ill_conditioned = 4,   // the normal equations needed regularisation
+  flag_left_node_set = 8,     // a sample point's stencil left the precomputed node set
+  flag_singular = 16,         // the normal equations stayed singular after regularisation
+};
+
+// Writes one source: kinematics at a point of mass m and current volume `volume`.
+template <class MemorySpace>
+KOKKOS_INLINE_FUNCTION void write_source(const SourceView<MemorySpace>& sources, int b, int k,
+                                         const nn::PointKinematics<real_t>& kin, real_t m, real_t volume,
+                                         const Mat3<real_t>& F, const Vec3<real_t>& force_per_mass,
+                                         const ElasticMaterial<real_t>& material, real_t dt, bool apic) {
+  real_t* out = &sources(b, k, 0);
+  for (int d = 0; d < 3; ++d) {
+    out[source_x + d] = kin.g[d];
+    out[source_momentum + d] = m * (kin.v[d] + dt * force_per_mass[d]);
+  }
+  out[source_mass] = m;
+  const real_t J = determinant(F);
+  Mat3<real_t> affine = Mat3<real_t>::zero();
+  if (apic) {
+    Mat3<real_t> Fdot;
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) Fdot(i, j) = kin.Fdot[i][j];
+    affine = m * (Fdot * inverse(F));
+  }
+  const Mat3<real_t> stress = (-dt * volume / J) * kirchhoff_stress(material, F);
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) {
+      out[source_affine + 3 * i + j] = affine(i, j);
+      out[source_stress + 3 * i + j] = stress(i, j);
+    }
+}
+
+template <class MemorySpace>
+KOKKOS_INLINE_FUNCTION void clear_source(const SourceView<MemorySpace>& sources, int b, int k) {
+  for (int c = 0; c < source_size; ++c) sources(b, k, c) = real_t(0);
+}
+
+// Algorithm 1, step 2: the sample and neighbour material points (sample points first: k < num_samples), each with
+// its full-order mass and reference volume. The samples' positions and dg/dxhat are kept for the projection.
+template <class Manifold, class MemorySpace>
+struct MaterialPointSources {
+  Manifold manifold;
+  Kokkos::View<const real_t**, Kokkos::LayoutRight, MemorySpace> X;  // (points, 3)
+  Kokkos::View<const real_t*, MemorySpace> mass, volume;
+  BatchMatrix<MemorySpace> xhat, xhatdot;
+  Kokkos::View<const RolloutLoads*, MemorySpace> loads;
+  ElasticMaterial<real_t> material;
+  real_t time, dt;
+  bool apic;
+  SourceView<MemorySpace> sources;
+  BatchVectors<MemorySpace> sample_x;
+  BatchJacobians<MemorySpace> sample_J;
+  Kokkos::View<int*, MemorySpace> flags;
+
+  KOKKOS_INLINE_FUNCTION void operator()(const long e) const {
+    const int num_points = int(X.extent(0));
+    const int b = int(e / num_points), k = int(e % num_points);
+    const real_t Xk[3] = {X(k, 0), X(k, 1), X(k, 2)};
+    nn::PointKinematics<real_t> kin;
+    const bool sample = k < int(sample_x.extent(1));
+    manifold.kinematics(Xk, &xhat(b, 0), &xhatdot(b, 0), kin, sample ? &sample_J(b, k, 0, 0) : nullptr);
+    Mat3<real_t> F;
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) F(i, j) = kin.F[i][j];
+    const real_t J = determinant(F);
+    if (!(J > real_t(0))) {
+      Kokkos::atomic_or(&flags(b), int(flag_inverted));
+      clear_source(sources, b, k);
+      return;
+    }
+    const Vec3<real_t> f = loads(b).force_per_unit_mass({{Xk[0], Xk[1], Xk[2]}}, time);
+    write_source(sources, b, k, kin, mass(k), volume(k) * J, F, f, material, dt, apic);
+    if (sample)
+      for (int d = 0; d < 3; ++d) sample_x(b, k, d) = kin.g[d];
+  }
+};
+
+// Algorithm 2, step 3: quadrature points fixed in the current configuration; their reference positions are found by
+// inverting g (warm-started from the previous step's). A point whose inverse lies outside the reference solid is
+// outside the material and carries nothing; a failed inversion is dropped the same way and counted.
+template <class Manifold, class MemorySpace>
+struct QuadratureSources {
+  Manifold manifold;
+  Kokkos::View<const real_t**, Kokkos::LayoutRight, MemorySpace> x;  // (quadrature points, 3)
+  Kokkos::View<const real_t*, MemorySpace> weight;                   // current volume of each point
+  ReferenceDomain domain;
+  real_t density;
+  NewtonSettings newton;
+  BatchMatrix<MemorySpace> xhat, xhatdot;
+  Kokkos::View<const RolloutLoads*, MemorySpace> loads;
+  ElasticMaterial<real_t> material;
+  real_t time, dt;
+  bool apic;
+  BatchVectors<MemorySpace> reference;           // (rollouts, quadrature points, 3): warm start in, inverse out
+  Kokkos::View<unsigned char**, MemorySpace> converged;  // (rollouts, quadrature points): reference holds a solution
+  SourceView<MemorySpace> sources;
+  Kokkos::View<int*, MemorySpace> failures;  // per rollout, this step
+  Kokkos::View<int*, MemorySpace> flags;
+
+  KOKKOS_INLINE_FUNCTION void operator()(const long e) const {
+    const int num_points = int(x.extent(0));
+    const int b = int(e / num_points), q = int(e % num_points);
+    const Vec3<real_t> xq{{x(q, 0), x(q, 1), x(q, 2)}};
+    Vec3<real_t> Xq{{reference(b, q, 0), reference(b, q, 1), reference(b, q, 2)}};
+    if (!converged(b, q)) {
+      // Cold start: one fixed-point step from the identity, X = x - (g(x) - x).
+      real_t g[3], F[3][3];
+      manifold.position_and_gradient(&xq[0], &xhat(b, 0), g, F);
+      for (int d = 0; d < 3; ++d) Xq[d] = xq[d] - (g[d] - xq[d]);
+    }
+    const bool ok = SerialInvertMap(manifold, xq, &xhat(b, 0), newton, Xq);
+    converged(b, q) = ok ? 1 : 0;
+    if (ok)
+      for (int d = 0; d < 3; ++d) reference(b, q, d) = Xq[d];
+    if (!ok || !domain.contains(Xq)) {
+      if (!ok) Kokkos::atomic_add(&failures(b), 1);
+      clear_source(sources, b, q);
+      for (int d = 0; d < 3; ++d) sources(b, q, source_x + d) = xq[d];
+      return;
+    }
+    nn::PointKinematics<real_t> kin;
+    manifold.kinematics(&Xq[0], &xhat(b, 0), &xhatdot(b, 0), kin, nullptr);
+    Mat3<real_t> F;
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) F(i, j) = kin.F[i][j];
+    const real_t J = determinant(F);
+    if (!(J > real_t(0))) {
+      Kokkos::atomic_or(&flags(b), int(flag_inverted));
+      clear_source(sources, b, q);
+      return;
+    }
+    for (int d = 0; d < 3; ++d) kin.g[d] = xq[d];  // the point sits where it was placed, up to the tolerance
+    const Vec3<real_t> f = loads(b).force_per_unit_mass(Xq, time);
+    write_source(sources, b, q, kin, density * weight(q) / J, weight(q), F, f, material, dt, apic);
+  }
+};
+
+// Algorithm 2, step 6: the sample material points (fixed reference positions) for the projection.
+template <class Manifold, class MemorySpace>
+struct SampleKinematics {
+  Manifold manifold;
+  Kokkos::View<const real_t**, Kokkos::LayoutRight, MemorySpace> X;  // (samples, 3)
+  BatchMatrix<MemorySpace> xhat, xhatdot;
+  BatchVectors<MemorySpace> sample_x;
+  BatchJacobians<MemorySpace> sample_J;
+
+  KOKKOS_INLINE_FUNCTION void operator()(const long e) const {
+    const int num_samples = int(X.extent(0));
+    const int b = int(e / num_samples), s = int(e % num_samples);
+    const real_t Xs[3] = {X(s, 0), X(s, 1), X(s, 2)};
+    nn::PointKinematics<real_t> kin;
+    manifold.kinematics(Xs, &xhat(b, 0), &xhatdot(b, 0), kin, &sample_J(b, s, 0, 0));
+    for (int d = 0; d < 3; ++d) sample_x(b, s, d) = kin.g[d];
+  }
+};
+
+}  // namespace mpmrom::rom

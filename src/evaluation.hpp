@@ -1,0 +1,26 @@
+// Errors of reduced rollouts against full-order reference runs (SPEC.md metrics): each rollout is matched to the
+// reference run with the same parameter values and decoded at the reference's material points and output times.
+#pragma once
+
+#include <nlohmann/json.hpp>
+
+#include <string>
+#include <vector>
+
+#include "metrics.hpp"
+#include "model.hpp"
+#include "rom_file.hpp"
+#include "training_data.hpp"
+
+namespace mpmrom {
+
+// Errors of one rollout (latent states xhat, xhatdot: (frames, r)) against one reference run with the same times.
+ErrorAccumulator rollout_errors(const Model& model, const Snapshot& reference, const std::vector<double>& xhat,
+                                const std::vector<double>& xhatdot);
+
+// The whole evaluation as SPEC's JSON: aggregate metrics over all matched rollouts under the metric names, "train"
+// and "test" aggregates, and one entry per rollout under "runs". Throws std::runtime_error when no rollout matches a
+// reference, or a matched reference has other output times or points.
+nlohmann::json evaluate_rom(const RomFile& rom, const Model& model, const TrainingData& references);
+
+}  // namespace mpmrom

@@ -1,0 +1,880 @@
+#include "rom.hpp"
+
+#include <Kokkos_Core.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <numeric>
+#include <set>
+#include <sstream>
+#include <stdexcept>
+#include <unordered_map>
+#include <unordered_set>
+
+#include "fom.hpp"
+#include "impl/device_data.hpp"
+#include "kernels/rom/projection.hpp"
+#include "kernels/rom/sources.hpp"
+#include "kernels/rom/transfer.hpp"
+#include "sampling.hpp"
+#include "trainer.hpp"
+
+namespace mpmrom {
+namespace {
+
+using ExecutionSpace = Kokkos::DefaultExecutionSpace;
+using MemorySpace = ExecutionSpace::memory_space;
+using Vector = Kokkos::View<real_t*, MemorySpace>;
+using Matrix = Kokkos::View<real_t**, Kokkos::LayoutRight, MemorySpace>;
+using Cube = Kokkos::View<real_t***, Kokkos::LayoutRight, MemorySpace>;
+using Quad = Kokkos::View<real_t****, Kokkos::LayoutRight, MemorySpace>;
+using Clock = std::chrono::steady_clock;
+using impl::download;
+using impl::upload;
+using impl::upload_indices;
+
+double seconds_since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
+
+// Positions of every reference point for every training code of the model: (codes, points, 3).
+std::vector<double> training_positions(const Model& model) {
+  const nn::MlpLayout layout = model.layout();
+  const Vector params = upload<Vector>("mpmrom::rom::params", model.weights, layout.num_params);
+  const auto mlp = impl::device_mlp(model, params);
+  const std::size_t P = model.num_points(), C = model.num_codes();
+  const Matrix X = upload<Matrix>("mpmrom::rom::X", model.X, P, 3);
+  const Matrix codes = upload<Matrix>("mpmrom::rom::codes", model.codes, C, model.latent_dim);
+  Cube g("mpmrom::rom::training_positions", C, P, 3);
+  nn::evaluate(ExecutionSpace(), mlp, nn::PointsView<real_t, MemorySpace>(X), nn::CodesView<real_t, MemorySpace>(codes),
+               g);
+  return download(g);
+}
+
+// The grid nodes within reach of a point at x: the union of its quadratic stencils over x +- margin cells, per axis
+// [lo, hi] node indices.
+void reach(const GridGeometry<real_t>& grid, const double* x, double margin, int lo[3], int hi[3]) {
+  for (int d = 0; d < 3; ++d) {
+    const double xi = (x[d] - grid.origin[d]) / grid.dx;
+    lo[d] = std::max(0, int(std::floor(xi - 0.5 - margin)));
+    hi[d] = std::min(grid.dims[d] - 1, int(std::floor(xi - 0.5 + margin)) + 2);
+  }
+}
+
+template <class Visit>
+void for_each_node(const GridGeometry<real_t>& grid, const int lo[3], const int hi[3], Visit&& visit) {
+  for (int i = lo[0]; i <= hi[0]; ++i)
+    for (int j = lo[1]; j <= hi[1]; ++j)
+      for (int k = lo[2]; k <= hi[2]; ++k) visit(grid.index(i, j, k));
+}
+
+// Farthest-point order within a group of points, starting from the one nearest the group's centroid: spreads a few
+// samples over the group.
+std::vector<int> farthest_points(const std::vector<double>& X, const std::vector<int>& group, std::size_t count) {
+  std::vector<int> chosen;
+  if (group.empty() || count == 0) return chosen;
+  double c[3] = {0, 0, 0};
+  for (const int p : group)
+    for (int d = 0; d < 3; ++d) c[d] += X[3 * p + d] / double(group.size());
+  const auto dist2 = [&](int p, const double* y) {
+    double s = 0;
+    for (int d = 0; d < 3; ++d) s += (X[3 * p + d] - y[d]) * (X[3 * p + d] - y[d]);
+    return s;
+  };
+  int first = group[0];
+  for (const int p : group)
+    if (dist2(p, c) < dist2(first, c)) first = p;
+  chosen.push_back(first);
+  std::vector<double> nearest(group.size(), std::numeric_limits<double>::infinity());
+  while (chosen.size() < std::min(count, group.size())) {
+    const double* last = &X[3 * chosen.back()];
+    std::size_t best = 0;
+    for (std::size_t g = 0; g < group.size(); ++g) {
+      nearest[g] = std::min(nearest[g], dist2(group[g], last));
+      if (nearest[g] > nearest[best]) best = g;
+    }
+    chosen.push_back(group[best]);
+  }
+  return chosen;
+}
+
+// splitmix64: a seeded stream that is the same on every platform (std::shuffle's is not).
+std::uint64_t next_random(std::uint64_t& state) {
+  std::uint64_t z = (state += 0x9e3779b97f4a7c15ULL);
+  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+  return z ^ (z >> 31);
+}
+
+std::vector<int> region_samples(const Model& model, const Scene& scene, std::size_t count) {
+  // The paper's rule: where the force acts, where the body is held (near a Dirichlet region), and the free rest.
+  const std::size_t P = model.num_points();
+  std::vector<int> loaded, held, free;
+  for (std::size_t p = 0; p < P; ++p) {
+    const Vec3d X{model.X[3 * p], model.X[3 * p + 1], model.X[3 * p + 2]};
+    bool in_force = false, near_held = false;
+    for (const auto& f : scene.forces) in_force = in_force || f.region.contains(X);
+    for (const auto& d : scene.dirichlet) {
+      AxisBox grown = d.region;  // nodes of the region reach points within 1.5 cells
+      for (int k = 0; k < 3; ++k) {
+        grown.lo[k] -= 1.5 * scene.dx;
+        grown.hi[k] += 1.5 * scene.dx;
+      }
+      near_held = near_held || grown.contains(X);
+    }
+    (in_force ? loaded : near_held ? held : free).push_back(int(p));
+  }
+  std::vector<std::vector<int>*> groups{&loaded, &held, &free};
+  std::vector<int> chosen;
+  std::size_t remaining = count;
+  for (std::size_t g = 0; g < groups.size(); ++g) {
+    const std::size_t share = g + 1 == groups.size() ? remaining : std::min(remaining, count / 3);
+    const auto picked = farthest_points(model.X, *groups[g], share);
+    chosen.insert(chosen.end(), picked.begin(), picked.end());
+    remaining -= picked.size();
+  }
+  if (remaining > 0) {  // small groups: fill from everything not yet taken
+    std::vector<int> rest;
+    std::vector<bool> taken(P, false);
+    for (const int p : chosen) taken[p] = true;
+    for (std::size_t p = 0; p < P; ++p)
+      if (!taken[p]) rest.push_back(int(p));
+    const auto picked = farthest_points(model.X, rest, remaining);
+    chosen.insert(chosen.end(), picked.begin(), picked.end());
+  }
+  return chosen;
+}
+
+// Greedy, error-driven: repeatedly adds the point whose velocities, projected with the others' onto the tangent
+// space (the ROM's projection step), best reproduce the full-order velocities of every point, over a spread of
+// training snapshots. A tiny ridge keeps the first (under-determined) steps solvable.
+std::vector<int> greedy_samples(const Model& model, const TrainingData& data, std::size_t count) {
+  const int r = model.latent_dim;
+  const std::size_t P = model.num_points();
+  // Snapshots: model codes whose run is among the loaded training runs, about 24 spread over all of them.
+  std::map<std::string, std::size_t> run_index;
+  for (std::size_t i = 0; i < data.train.files.size(); ++i) run_index[data.train.files[i]] = i;
+  struct Frame {
+    std::size_t code, run, frame;
+  };
+  std::vector<Frame> frames;
+  for (std::size_t c = 0; c < model.num_codes(); ++c) {
+    const auto it = run_index.find(model.runs.at(std::size_t(model.code_run[c])));
+    if (it == run_index.end()) continue;
+    const Snapshot& run = data.train.runs[it->second];
+    for (std::size_t f = 0; f < run.num_frames; ++f)
+      if (std::fabs(run.time[f] - model.code_time[c]) <= 1e-9 * std::max(1.0, run.time.back()))
+        frames.push_back({c, it->second, f});
+  }
+  if (frames.empty())
+    throw std::runtime_error("greedy selection: none of the model's training runs is among the given --data runs");
+  std::vector<Frame> picked_frames;
+  const std::size_t stride = std::max<std::size_t>(1, frames.size() / 24);
+  for (std::size_t i = stride / 2; i < frames.size(); i += stride) picked_frames.push_back(frames[i]);
+  const std::size_t T = picked_frames.size();
+  // Jacobians of every point at the chosen codes.
+  std::vector<double> codes;
+  for (const auto& f : picked_frames)
+    codes.insert(codes.end(), model.codes.begin() + f.code * r, model.codes.begin() + (f.code + 1) * r);
+  const nn::MlpLayout layout = model.layout();
+  const Vector params = upload<Vector>("mpmrom::rom::params", model.weights, layout.num_params);
+  const auto mlp = impl::device_mlp(model, params);
+  Cube g("mpmrom::rom::greedy_g", T, P, 3), no_velocity;
+  Quad F("mpmrom::rom::greedy_F", T, P, 3, 3), J("mpmrom::rom::greedy_J", T, P, 3, r);
+  nn::evaluate_with_jacobians(ExecutionSpace(), mlp,
+                              nn::PointsView<real_t, MemorySpace>(upload<Matrix>("X", model.X, P, 3)),
+                              nn::CodesView<real_t, MemorySpace>(upload<Matrix>("codes", codes, T, r)),
+                              nn::CodesView<real_t, MemorySpace>(), g, F, J, no_velocity);
+  const std::vector<double> Jh = download(J);
+  std::vector<double> V(T * P * 3);
+  for (std::size_t t = 0; t < T; ++t) {
+    const Snapshot& run = data.train.runs[picked_frames[t].run];
+    std::copy_n(run.v.begin() + picked_frames[t].frame * P * 3, P * 3, V.begin() + t * P * 3);
+  }
+  // Error of a sample set: residual of every point's velocity after the projection, over the chosen snapshots.
+  std::vector<int> evaluation;
+  for (std::size_t p = 0; p < P; p += std::max<std::size_t>(1, P / 512)) evaluation.push_back(int(p));
+  std::vector<double> A_base(T * r * r, 0.0), b_base(T * r, 0.0);
+  std::vector<int> chosen;
+  std::vector<bool> taken(P, false);
+  const std::size_t candidate_stride = std::max<std::size_t>(1, P / 512);
+  for (std::size_t step = 0; step < count; ++step) {
+    double best_error = std::numeric_limits<double>::infinity();
+    int best = -1;
+    for (std::size_t c = 0; c < P; c += candidate_stride) {
+      if (taken[c]) continue;
+      double error = 0;
+      for (std::size_t t = 0; t < T; ++t) {
+        double A[rom::max_latent_dim * rom::max_latent_dim], b[rom::max_latent_dim];
+        std::copy_n(&A_base[t * r * r], r * r, A);
+        std::copy_n(&b_base[t * r], r, b);
+        for (int k = 0; k < 3; ++k) {
+          const double* row = &Jh[((t * P + c) * 3 + k) * r];
+          for (int i = 0; i < r; ++i) {
+            b[i] += row[i] * V[(t * P + c) * 3 + k];
+            for (int j = 0; j < r; ++j) A[i * r + j] += row[i] * row[j];
+          }
+        }
+        double trace = 0;
+        for (int i = 0; i < r; ++i) trace += A[i * r + i];
+        for (int i = 0; i < r; ++i) A[i * r + i] += 1e-8 * trace / r + 1e-300;
+        if (!dense::SerialCholesky(A, r, r)) {
+          error = std::numeric_limits<double>::infinity();
+          break;
+        }
+        dense::SerialCholeskySolve(A, r, r, b);
+        for (const int p : evaluation)
+          for (int k = 0; k < 3; ++k) {
+            const double* row = &Jh[((t * P + p) * 3 + k) * r];
+            double v = 0;
+            for (int i = 0; i < r; ++i) v += row[i] * b[i];
+            const double e = v - V[(t * P + p) * 3 + k];
+            error += e * e;
+          }
+      }
+      if (error < best_error) {
+        best_error = error;
+        best = int(c);
+      }
+    }
+    if (best < 0) break;
+    chosen.push_back(best);
+    taken[best] = true;
+    for (std::size_t t = 0; t < T; ++t)
+      for (int k = 0; k < 3; ++k) {
+        const double* row = &Jh[((t * P + best) * 3 + k) * r];
+        for (int i = 0; i < r; ++i) {
+          b_base[t * r + i] += row[i] * V[(t * P + best) * 3 + k];
+          for (int j = 0; j < r; ++j) A_base[t * r * r + i * r + j] += row[i] * row[j];
+        }
+      }
+  }
+  return chosen;
+}
+
+}  // namespace
+
+RomMethod rom_method_from_string(const std::string& name) {
+  if (name == "point") return RomMethod::MaterialPoint;
+  if (name == "node") return RomMethod::SampleNode;
+  throw std::invalid_argument("method must be 'point' (Algorithm 1) or 'node' (Algorithm 2), not '" + name + "'");
+}
+
+std::string to_string(RomMethod method) { return method == RomMethod::MaterialPoint ? "point" : "node"; }
+
+SampleSelection sample_selection_from_string(const std::string& name) {
+  if (name == "region") return SampleSelection::Region;
+  if (name == "random") return SampleSelection::Random;
+  if (name == "greedy") return SampleSelection::Greedy;
+  throw std::invalid_argument("selection must be 'region', 'random' or 'greedy', not '" + name + "'");
+}
+
+std::string to_string(SampleSelection selection) {
+  switch (selection) {
+    case SampleSelection::Region: return "region";
+    case SampleSelection::Random: return "random";
+    case SampleSelection::Greedy: return "greedy";
+  }
+  return "";
+}
+
+nlohmann::json RomSettings::to_json() const {
+  return {{"method", to_string(method)},
+          {"samples", samples},
+          {"selection", to_string(selection)},
+          {"seed", seed},
+          {"cfl", cfl},
+          {"envelope_margin", envelope_margin},
+          {"quadrature_order", quadrature_order},
+          {"newton_tolerance", newton_tolerance},
+          {"newton_iterations", newton_iterations},
+          {"projection_iterations", projection_iterations},
+          {"max_condition", max_condition},
+          {"regularization", regularization}};
+}
+
+void RomSettings::validate() const {
+  if (samples < 0) throw std::invalid_argument("--samples must be >= 0 (0: all points)");
+  if (cfl < 0 || cfl > 1) throw std::invalid_argument("--cfl must be in (0, 1] (0: the scene's)");
+  if (!(envelope_margin >= 0) || envelope_margin > 4) throw std::invalid_argument("--margin must be in [0, 4] cells");
+  if (quadrature_order < 1 || quadrature_order > 3) throw std::invalid_argument("--quadrature must be 1, 2 or 3");
+  if (!(newton_tolerance > 0)) throw std::invalid_argument("--newton-tolerance must be positive");
+  if (projection_iterations < 0 || projection_iterations > 10)
+    throw std::invalid_argument("--projection-iterations must be in [0, 10]");
+  if (newton_iterations < 1) throw std::invalid_argument("--newton-iterations must be >= 1");
+  if (max_condition < 0 || regularization < 0)
+    throw std::invalid_argument("--max-condition and --regularization must be >= 0");
+}
+
+nlohmann::json HyperReduction::summary() const {
+  return {{"samples", samples.size()},
+          {"source_points", source_points.size()},
+          {"neighbours", source_points.empty() ? 0 : source_points.size() - samples.size()},
+          {"quadrature_points", quadrature_weight.size()},
+          {"nodes", nodes.size()},
+          {"node_source_pairs", node_sources.size()}};
+}
+
+std::vector<int> select_samples(const Model& model, const Scene& scene, const RomSettings& settings,
+                                const TrainingData* data) {
+  const std::size_t P = model.num_points();
+  if (settings.samples == 0 || std::size_t(settings.samples) >= P) {
+    std::vector<int> all(P);
+    std::iota(all.begin(), all.end(), 0);
+    return all;
+  }
+  const std::size_t count = std::size_t(settings.samples);
+  switch (settings.selection) {
+    case SampleSelection::Region:
+      return region_samples(model, scene, count);
+    case SampleSelection::Random: {
+      std::vector<int> order(P);
+      std::iota(order.begin(), order.end(), 0);
+      std::uint64_t state = settings.seed;
+      for (std::size_t i = P - 1; i > 0; --i) std::swap(order[i], order[next_random(state) % (i + 1)]);
+      order.resize(count);
+      return order;
+    }
+    case SampleSelection::Greedy:
+      if (data == nullptr || data->train.runs.empty())
+        throw std::invalid_argument("greedy sample selection needs the full-order training runs (--data)");
+      return greedy_samples(model, *data, count);
+  }
+  return {};
+}
+
+HyperReduction build_hyper_reduction(const Model& model, const Scene& scene, const RomSettings& settings,
+                                     const std::vector<int>& samples) {
+  const GridGeometry<real_t> grid = grid_for_scene(scene);
+  const std::size_t P = model.num_points(), C = model.num_codes();
+  const std::vector<double> positions = training_positions(model);
+  const double margin = settings.envelope_margin;
+  const auto position = [&](std::size_t c, std::size_t p) { return &positions[(c * P + p) * 3]; };
+  HyperReduction h;
+  h.samples = samples;
+
+  // I: every node a sample's stencil reaches over the training motion.
+  std::set<int> node_set;
+  for (const int s : samples)
+    for (std::size_t c = 0; c < C; ++c) {
+      int lo[3], hi[3];
+      reach(grid, position(c, std::size_t(s)), margin, lo, hi);
+      for_each_node(grid, lo, hi, [&](int node) { node_set.insert(node); });
+    }
+  h.nodes.assign(node_set.begin(), node_set.end());
+  std::unordered_map<int, int> slot;
+  for (std::size_t n = 0; n < h.nodes.size(); ++n) slot[h.nodes[n]] = int(n);
+  std::vector<std::vector<int>> gather(h.nodes.size());
+
+  if (settings.method == RomMethod::MaterialPoint) {
+    // Sources: the samples, then every other point that reaches a node of I at some training code (N).
+    std::vector<int> source_of(P, -1);
+    for (const int s : samples) {
+      source_of[s] = int(h.source_points.size());
+      h.source_points.push_back(s);
+    }
+    std::vector<int> reached;
+    for (std::size_t p = 0; p < P; ++p) {
+      reached.clear();
+      for (std::size_t c = 0; c < C; ++c) {
+        int lo[3], hi[3];
+        reach(grid, position(c, p), margin, lo, hi);
+        for_each_node(grid, lo, hi, [&](int node) {
+          const auto it = slot.find(node);
+          if (it != slot.end() && std::find(reached.begin(), reached.end(), it->second) == reached.end())
+            reached.push_back(it->second);
+        });
+      }
+      if (reached.empty()) continue;
+      if (source_of[p] < 0) {
+        source_of[p] = int(h.source_points.size());
+        h.source_points.push_back(int(p));
+      }
+      for (const int n : reached) gather[n].push_back(source_of[p]);
+    }
+  } else {
+    // Quadrature: Gauss points of the dual cells (the node-centred cells on which the B-splines are polynomial)
+    // around every node of I that the training motion brings material near.
+    std::unordered_set<int> occupied;
+    for (std::size_t c = 0; c < C; ++c)
+      for (std::size_t p = 0; p < P; ++p) {
+        int lo[3], hi[3];
+        reach(grid, position(c, p), margin, lo, hi);
+        // the dual cell holding the point is the middle node of its stencil
+        occupied.insert(grid.index((lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, (lo[2] + hi[2]) / 2));
+      }
+    std::set<int> cells;
+    for (const int node : h.nodes) {
+      int idx[3];
+      grid.indices(node, idx[0], idx[1], idx[2]);
+      for (int a = -1; a <= 1; ++a)
+        for (int b = -1; b <= 1; ++b)
+          for (int d = -1; d <= 1; ++d) {
+            const int i = idx[0] + a, j = idx[1] + b, k = idx[2] + d;
+            if (i < 0 || j < 0 || k < 0 || i >= grid.dims[0] || j >= grid.dims[1] || k >= grid.dims[2]) continue;
+            // keep cells next to material somewhere in the training motion
+            bool near = false;
+            for (int e = -1; e <= 1 && !near; ++e)
+              for (int f = -1; f <= 1 && !near; ++f)
+                for (int g = -1; g <= 1 && !near; ++g) {
+                  const int ii = i + e, jj = j + f, kk = k + g;
+                  if (ii < 0 || jj < 0 || kk < 0 || ii >= grid.dims[0] || jj >= grid.dims[1] || kk >= grid.dims[2])
+                    continue;
+                  near = occupied.count(grid.index(ii, jj, kk)) > 0;
+                }
+            if (near) cells.insert(grid.index(i, j, k));
+          }
+    }
+    static const double gauss_points[3][3] = {{0, 0, 0}, {-0.5773502691896257, 0.5773502691896257, 0},
+                                              {-0.7745966692414834, 0, 0.7745966692414834}};
+    static const double gauss_weights[3][3] = {{2, 0, 0}, {1, 1, 0}, {5.0 / 9, 8.0 / 9, 5.0 / 9}};
+    const int order = settings.quadrature_order;
+    const double half = 0.5 * grid.dx;
+    std::unordered_map<int, int> first_point;
+    for (const int cell : cells) {
+      int idx[3];
+      grid.indices(cell, idx[0], idx[1], idx[2]);
+      const Vec3<real_t> center = grid.position(idx[0], idx[1], idx[2]);
+      first_point[cell] = int(h.quadrature_weight.size());
+      for (int a = 0; a < order; ++a)
+        for (int b = 0; b < order; ++b)
+          for (int d = 0; d < order; ++d) {
+            h.quadrature_x.push_back(center[0] + half * gauss_points[order - 1][a]);
+            h.quadrature_x.push_back(center[1] + half * gauss_points[order - 1][b]);
+            h.quadrature_x.push_back(center[2] + half * gauss_points[order - 1][d]);
+            h.quadrature_weight.push_back(half * half * half * gauss_weights[order - 1][a] *
+                                          gauss_weights[order - 1][b] * gauss_weights[order - 1][d]);
+          }
+    }
+    const int per_cell = order * order * order;
+    for (std::size_t n = 0; n < h.nodes.size(); ++n) {
+      int idx[3];
+      grid.indices(h.nodes[n], idx[0], idx[1], idx[2]);
+      for (int a = -1; a <= 1; ++a)
+        for (int b = -1; b <= 1; ++b)
+          for (int d = -1; d <= 1; ++d) {
+            const int i = idx[0] + a, j = idx[1] + b, k = idx[2] + d;
+            if (i < 0 || j < 0 || k < 0 || i >= grid.dims[0] || j >= grid.dims[1] || k >= grid.dims[2]) continue;
+            const auto it = first_point.find(grid.index(i, j, k));
+            if (it == first_point.end()) continue;
+            for (int q = 0; q < per_cell; ++q) gather[n].push_back(it->second + q);
+          }
+    }
+  }
+  h.node_offsets.push_back(0);
+  for (auto& list : gather) {
+    std::sort(list.begin(), list.end());
+    h.node_sources.insert(h.node_sources.end(), list.begin(), list.end());
+    h.node_offsets.push_back(int(h.node_sources.size()));
+  }
+  return h;
+}
+
+namespace {
+
+// The loads of one rollout's scene. region_mass: the model's mass in each force region (the full-order share).
+rom::RolloutLoads loads_for_scene(const Scene& scene, const Model& model) {
+  rom::RolloutLoads loads;
+  if (scene.forces.size() > std::size_t(kMaxExternalForces))
+    throw std::runtime_error("at most " + std::to_string(kMaxExternalForces) + " [[force]] entries are supported");
+  if (scene.dirichlet.size() > std::size_t(kMaxDirichletRegions))
+    throw std::runtime_error("at most " + std::to_string(kMaxDirichletRegions) + " [[dirichlet]] entries are supported");
+  for (const auto& f : scene.forces) {
+    double region_mass = 0;
+    for (std::size_t p = 0; p < model.num_points(); ++p)
+      if (f.region.contains({model.X[3 * p], model.X[3 * p + 1], model.X[3 * p + 2]})) region_mass += model.mass[p];
+    if (!(region_mass > 0)) throw std::runtime_error("a [[force]] region holds none of the model's material points");
+    const int k = loads.num_forces++;
+    for (int d = 0; d < 3; ++d) {
+      loads.force_per_mass[3 * k + d] = real_t(f.force[d] / region_mass);
+      loads.force_box[6 * k + d] = real_t(f.region.lo[d]);
+      loads.force_box[6 * k + 3 + d] = real_t(f.region.hi[d]);
+    }
+    loads.force_window[2 * k] = real_t(f.start);
+    loads.force_window[2 * k + 1] = real_t(std::min(f.end, 1e30));
+  }
+  GridBoundary& boundary = loads.boundary;
+  boundary.walls = to_contact(scene.walls);
+  boundary.ground = scene.ground.enabled;
+  boundary.ground_height = real_t(scene.ground.height);
+  boundary.ground_contact = to_contact(scene.ground.contact);
+  for (const auto& region : scene.dirichlet) {
+    const int r = boundary.num_dirichlet++;
+    for (int d = 0; d < 3; ++d) {
+      boundary.dirichlet_box[6 * r + d] = real_t(region.region.lo[d]);
+      boundary.dirichlet_box[6 * r + 3 + d] = real_t(region.region.hi[d]);
+      boundary.dirichlet_velocity[3 * r + d] = real_t(region.velocity[d]);
+    }
+    loads.dirichlet_window[2 * r] = real_t(region.start);
+    loads.dirichlet_window[2 * r + 1] = real_t(std::min(region.end, 1e30));
+  }
+  for (int d = 0; d < 3; ++d) loads.gravity[d] = real_t(scene.gravity[d]);
+  return loads;
+}
+
+rom::ReferenceDomain reference_domain(const Scene& scene) {
+  rom::ReferenceDomain domain;
+  if (scene.bodies.size() > std::size_t(rom::max_reference_bodies))
+    throw std::runtime_error("the sample-node ROM supports at most " + std::to_string(rom::max_reference_bodies) +
+                             " bodies");
+  for (const auto& body : scene.bodies) {
+    const int b = domain.num_bodies++;
+    domain.shape[b] = body.shape == ShapeKind::Box        ? rom::ReferenceDomain::Box
+                      : body.shape == ShapeKind::Cylinder ? rom::ReferenceDomain::Cylinder
+                                                          : rom::ReferenceDomain::Sphere;
+    for (int d = 0; d < 3; ++d) {
+      domain.center[3 * b + d] = real_t(body.center[d]);
+      domain.half_extents[3 * b + d] = real_t(body.half_extents[d]);
+    }
+    domain.radius[b] = real_t(body.radius);
+    domain.half_height[b] = real_t(body.height / 2);
+  }
+  return domain;
+}
+
+// The scene's material points must be the model's reference points: a model trained on another scene (or another
+// resolution) cannot be rolled out on this one.
+void check_model_fits_scene(const Model& model, const Scene& scene, const ParticleSamples& samples) {
+  if (samples.size() != model.num_points())
+    throw std::runtime_error("the model was trained on " + std::to_string(model.num_points()) +
+                             " material points (scene '" + model.scene_name + "'); scene '" + scene.name + "' has " +
+                             std::to_string(samples.size()));
+  for (std::size_t i = 0; i < samples.X.size(); ++i)
+    if (std::fabs(samples.X[i] - model.X[i]) > 1e-6 * std::max(1.0, std::fabs(model.X[i])))
+      throw std::runtime_error("the scene's material point " + std::to_string(i / 3) +
+                               " is not where the model's was; the model was trained on scene '" + model.scene_name +
+                               "'");
+}
+
+// xhat(0): Levenberg-Marquardt on the positions; xhatdot(0): least squares on the velocities, over every point.
+void initial_state(const Model& model, const ParticleSamples& samples, const Scene& scene, std::vector<double>& xhat,
+                   std::vector<double>& xhatdot) {
+  const int r = model.latent_dim;
+  const std::size_t P = model.num_points();
+  Snapshot start;
+  start.num_points = P;
+  start.num_frames = 1;
+  start.X = model.X;
+  start.x = model.X;
+  start.time = {0.0};
+  xhat = project_codes(model, start);
+  xhatdot.assign(r, 0.0);
+  std::vector<double> v(3 * P);
+  bool moving = false;
+  for (std::size_t p = 0; p < P; ++p) {
+    const BodySpec& body = scene.bodies[samples.body[p]];
+    const double* X = &samples.X[3 * p];
+    const double arm[3] = {X[0] - body.center[0], X[1] - body.center[1], X[2] - body.center[2]};
+    const auto& w = body.angular_velocity;
+    const double spin[3] = {w[1] * arm[2] - w[2] * arm[1], w[2] * arm[0] - w[0] * arm[2], w[0] * arm[1] - w[1] * arm[0]};
+    for (int d = 0; d < 3; ++d) {
+      v[3 * p + d] = samples.velocity[3 * p + d];
+      moving = moving || v[3 * p + d] != 0.0 || spin[d] != 0.0;
+    }
+  }
+  if (!moving) return;
+  const Vector params = upload<Vector>("mpmrom::rom::params", model.weights, model.layout().num_params);
+  Cube g("g", 1, P, 3), no_velocity;
+  Quad F("F", 1, P, 3, 3), J("J", 1, P, 3, r);
+  nn::evaluate_with_jacobians(ExecutionSpace(), impl::device_mlp(model, params),
+                              nn::PointsView<real_t, MemorySpace>(upload<Matrix>("X", model.X, P, 3)),
+                              nn::CodesView<real_t, MemorySpace>(upload<Matrix>("xhat", xhat, 1, r)),
+                              nn::CodesView<real_t, MemorySpace>(), g, F, J, no_velocity);
+  const auto Jh = download(J);
+  std::vector<double> A(r * r, 0.0), b(r, 0.0);
+  for (std::size_t row = 0; row < 3 * P; ++row)
+    for (int i = 0; i < r; ++i) {
+      b[i] += Jh[row * r + i] * v[row];
+      for (int j = 0; j < r; ++j) A[i * r + j] += Jh[row * r + i] * Jh[row * r + j];
+    }
+  if (!dense::SerialCholesky(A.data(), r, r))
+    throw std::runtime_error("the initial velocity cannot be projected: dg/dxhat is rank-deficient at xhat(0)");
+  dense::SerialCholeskySolve(A.data(), r, r, b.data());
+  xhatdot = b;
+}
+
+std::string describe_flags(int flags) {
+  std::vector<std::string> causes;
+  if (flags & rom::flag_inverted) causes.push_back("an inverted deformation gradient (det F <= 0)");
+  if (flags & rom::flag_not_finite) causes.push_back("a non-finite projected velocity");
+  if (flags & rom::flag_left_node_set)
+    causes.push_back("a sample point left the precomputed node set (motion beyond the training envelope)");
+  if (flags & rom::flag_singular) causes.push_back("singular normal equations even after regularisation");
+  std::string out;
+  for (std::size_t i = 0; i < causes.size(); ++i) out += (i ? "; " : "") + causes[i];
+  return out;
+}
+
+// The time-stepping loop for one compiled network width.
+template <int MaxWidth>
+void step_batch(const Model& model, const Scene& scene, const std::vector<rom::RolloutLoads>& host_loads,
+                const std::vector<double>& xhat0, const std::vector<double>& xhatdot0, const RomSettings& settings,
+                const HyperReduction& h, RomResult& result, const std::function<void(const RomProgress&)>& progress) {
+  const ExecutionSpace space;
+  const int B = int(host_loads.size()), r = model.latent_dim;
+  const int S = int(h.samples.size()), I = int(h.nodes.size());
+  const bool point_method = settings.method == RomMethod::MaterialPoint;
+  const int K = point_method ? int(h.source_points.size()) : int(h.quadrature_weight.size());
+  const GridGeometry<real_t> grid = grid_for_scene(scene);
+  const ElasticMaterial<real_t> material = material_for_scene(scene);
+  const bool apic = scene.transfer == TransferKind::APIC;
+  const real_t wave_speed = stable_time_step_wave_speed(material, real_t(scene.material.density));
+  const double cfl = settings.cfl > 0 ? settings.cfl : scene.cfl;
+  constexpr double epsilon = std::numeric_limits<real_t>::epsilon();
+
+  const Vector params = upload<Vector>("mpmrom::rom::params", model.weights, model.layout().num_params);
+  const rom::MlpManifold<MaxWidth, MemorySpace> manifold{impl::device_mlp(model, params)};
+
+  // Static data.
+  std::vector<double> X_src, mass_src, volume_src, X_samples;
+  for (const int p : h.source_points) {
+    X_src.insert(X_src.end(), model.X.begin() + 3 * p, model.X.begin() + 3 * p + 3);
+    mass_src.push_back(model.mass[p]);
+    volume_src.push_back(model.volume[p]);
+  }
+  for (const int s : h.samples) X_samples.insert(X_samples.end(), model.X.begin() + 3 * s, model.X.begin() + 3 * s + 3);
+  const Matrix points_X = upload<Matrix>("mpmrom::rom::source_X", X_src, X_src.size() / 3, 3);
+  const Vector points_mass = upload<Vector>("mpmrom::rom::source_mass", mass_src, mass_src.size());
+  const Vector points_volume = upload<Vector>("mpmrom::rom::source_volume", volume_src, volume_src.size());
+  const Matrix samples_X = upload<Matrix>("mpmrom::rom::samples_X", X_samples, S, 3);
+  const Matrix quadrature_x =
+      upload<Matrix>("mpmrom::rom::quadrature_x", h.quadrature_x, h.quadrature_weight.size(), 3);
+  const Vector quadrature_w =
+      upload<Vector>("mpmrom::rom::quadrature_w", h.quadrature_weight, h.quadrature_weight.size());
+  const auto nodes = upload_indices("mpmrom::rom::nodes", h.nodes);
+  const auto offsets = upload_indices("mpmrom::rom::node_offsets", h.node_offsets);
+  const auto node_sources = upload_indices("mpmrom::rom::node_sources", h.node_sources);
+  std::vector<int> slot_host(std::size_t(grid.num_nodes()), -1);
+  for (int n = 0; n < I; ++n) slot_host[h.nodes[n]] = n;
+  const auto node_slot = upload_indices("mpmrom::rom::node_slot", slot_host);
+  Kokkos::View<rom::RolloutLoads*, MemorySpace> loads("mpmrom::rom::loads", B);
+  {
+    auto host = Kokkos::create_mirror_view(loads);
+    for (int b = 0; b < B; ++b) host(b) = host_loads[b];
+    Kokkos::deep_copy(loads, host);
+  }
+
+  // State and work arrays.
+  std::vector<double> xhat_all, xhatdot_all;
+  for (int b = 0; b < B; ++b) {
+    xhat_all.insert(xhat_all.end(), xhat0.begin() + std::size_t(b) * r, xhat0.begin() + std::size_t(b + 1) * r);
+    xhatdot_all.insert(xhatdot_all.end(), xhatdot0.begin() + std::size_t(b) * r,
+                       xhatdot0.begin() + std::size_t(b + 1) * r);
+  }
+  const Matrix xhat = upload<Matrix>("mpmrom::rom::xhat", xhat_all, B, r);
+  const Matrix xhatdot = upload<Matrix>("mpmrom::rom::xhatdot", xhatdot_all, B, r);
+  rom::SourceView<MemorySpace> sources("mpmrom::rom::sources", B, K, rom::source_size);
+  Cube sample_x("mpmrom::rom::sample_x", B, S, 3), sample_v("mpmrom::rom::sample_v", B, S, 3);
+  Quad sample_J("mpmrom::rom::sample_J", B, S, 3, r);
+  Cube node_v("mpmrom::rom::node_v", B, I, 3), trial_x("mpmrom::rom::trial_x", B, S, 3);
+  Matrix xhat_next("mpmrom::rom::xhat_next", B, r), xhatdot_next("mpmrom::rom::xhatdot_next", B, r);
+  Cube reference("mpmrom::rom::reference", point_method ? 0 : B, point_method ? 0 : K, 3);
+  Kokkos::View<unsigned char**, MemorySpace> converged("mpmrom::rom::converged", point_method ? 0 : B,
+                                                      point_method ? 0 : K);
+  Kokkos::View<int*, MemorySpace> failures("mpmrom::rom::failures", B), flags("mpmrom::rom::flags", B);
+  Vector max_condition("mpmrom::rom::max_condition", B);
+  Kokkos::View<int*, MemorySpace> regularized("mpmrom::rom::regularized", B);
+
+  rom::ProjectionGuard guard;
+  guard.max_condition = real_t(settings.max_condition > 0 ? settings.max_condition : 0.01 / epsilon);
+  guard.regularization = real_t(settings.regularization > 0 ? settings.regularization : 100 * epsilon);
+  rom::NewtonSettings newton;
+  newton.tolerance = real_t(settings.newton_tolerance * scene.dx);
+  newton.max_iterations = settings.newton_iterations;
+  const rom::ReferenceDomain domain = reference_domain(scene);
+
+  const int frames = scene.num_outputs + 1;
+  result.times.clear();
+  result.xhat.assign(std::size_t(B) * frames * r, 0.0);
+  result.xhatdot.assign(std::size_t(B) * frames * r, 0.0);
+  result.outcomes.assign(B, RolloutOutcome{});
+  std::vector<int> host_flags(B, 0);
+  const auto record = [&](int frame) {
+    const auto xh = download(xhat), xd = download(xhatdot);
+    auto hf = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), flags);
+    for (int b = 0; b < B; ++b) {
+      RolloutOutcome& outcome = result.outcomes[b];
+      const bool fatal = hf(b) & rom::fatal_flags;
+      if (!fatal) outcome.frames_completed = frame + 1;
+      for (int q = 0; q < r; ++q) {
+        const std::size_t at = (std::size_t(b) * frames + frame) * r + q;
+        result.xhat[at] = xh[std::size_t(b) * r + q];  // a stopped rollout keeps its last good state
+        result.xhatdot[at] = xd[std::size_t(b) * r + q];
+      }
+    }
+  };
+  const auto check_flags = [&](double time) {
+    auto hf = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), flags);
+    for (int b = 0; b < B; ++b) {
+      if ((hf(b) & rom::fatal_flags) && !(host_flags[b] & rom::fatal_flags)) {
+        result.outcomes[b].stopped_at = time;
+        result.outcomes[b].message = "stopped at t = " + std::to_string(time) + " s: " + describe_flags(hf(b));
+      }
+      host_flags[b] = hf(b);
+    }
+  };
+
+  const auto start = Clock::now();
+  double time = 0;
+  real_t max_speed = 0;
+  result.times.push_back(0.0);
+  record(0);
+  for (int frame = 1; frame < frames; ++frame) {
+    const double target = scene.end_time * frame / scene.num_outputs;
+    const double dt_max = cfl * scene.dx / (double(wave_speed) + double(max_speed));
+    const long substeps = std::max(1L, long(std::ceil((target - time) / dt_max - 1e-9)));
+    const double dt_interval = (target - time) / double(substeps);
+    for (long sub = 0; sub < substeps; ++sub) {
+      const real_t t = real_t(time), dt = real_t(dt_interval);
+      if (point_method) {
+        Kokkos::parallel_for(
+            "mpmrom::rom::point_sources", Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>>(space, 0, long(B) * K),
+            rom::MaterialPointSources<decltype(manifold), MemorySpace>{
+                manifold, points_X, points_mass, points_volume, xhat, xhatdot, loads, material, t, dt, apic, sources,
+                sample_x, sample_J, flags});
+      } else {
+        Kokkos::parallel_for(
+            "mpmrom::rom::sample_kinematics",
+            Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>>(space, 0, long(B) * S),
+            rom::SampleKinematics<decltype(manifold), MemorySpace>{manifold, samples_X, xhat, xhatdot, sample_x,
+                                                                    sample_J});
+        Kokkos::parallel_for(
+            "mpmrom::rom::quadrature_sources",
+            Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>>(space, 0, long(B) * K),
+            rom::QuadratureSources<decltype(manifold), MemorySpace>{
+                manifold, quadrature_x, quadrature_w, domain, real_t(scene.material.density), newton, xhat, xhatdot,
+                loads, material, t, dt, apic, reference, converged, sources, failures, flags});
+      }
+      Kokkos::parallel_for("mpmrom::rom::gather_nodes",
+                           Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>>(space, 0, long(B) * I),
+                           rom::GatherNodeVelocities<MemorySpace>{grid, nodes, offsets, node_sources, sources, loads,
+                                                                  t, dt, node_v});
+      real_t speed = 0;
+      Kokkos::parallel_reduce(
+          "mpmrom::rom::g2p_samples", Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>>(space, 0, long(B) * S),
+          rom::SampleVelocities<MemorySpace>{grid, node_slot, sample_x, node_v, sample_v, flags},
+          Kokkos::Max<real_t>(speed));
+      using Projection = rom::ProjectVelocities<ExecutionSpace, MemorySpace>;
+      const auto project = [&]() {
+        Kokkos::parallel_for("mpmrom::rom::project",
+                             Kokkos::TeamPolicy<ExecutionSpace>(space, B, Kokkos::AUTO)
+                                 .set_scratch_size(0, Kokkos::PerTeam(Projection::scratch_bytes(r))),
+                             Projection{r, sample_J, sample_v, xhat, xhat_next, xhatdot_next, guard, dt, flags,
+                                        max_condition, regularized});
+      };
+      Kokkos::deep_copy(space, xhat_next, xhat);
+      Kokkos::deep_copy(space, xhatdot_next, xhatdot);
+      project();
+      // Re-project with J at the trial next state, so that the new state's own velocity field J(xhat_n+1) xhatdot
+      // reproduces the transferred velocities (with J(xhat_n) the manifold's curvature is counted twice).
+      for (int iteration = 0; iteration < settings.projection_iterations; ++iteration) {
+        Kokkos::parallel_for(
+            "mpmrom::rom::sample_jacobians",
+            Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>>(space, 0, long(B) * S),
+            rom::SampleKinematics<decltype(manifold), MemorySpace>{manifold, samples_X, xhat_next, xhatdot_next,
+                                                                    trial_x, sample_J});
+        project();
+      }
+      Kokkos::deep_copy(space, xhat, xhat_next);
+      Kokkos::deep_copy(space, xhatdot, xhatdot_next);
+      max_speed = speed;
+      time = sub + 1 == substeps ? target : time + dt_interval;
+      ++result.steps;
+    }
+    check_flags(time);
+    result.times.push_back(target);
+    record(frame);
+    if (progress) progress({frame, frames - 1, time, result.steps, seconds_since(start)});
+  }
+  Kokkos::fence();
+  result.step_seconds = seconds_since(start);
+  const auto hc = download(max_condition);
+  auto hr = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), regularized);
+  auto hfail = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), failures);
+  for (int b = 0; b < B; ++b) {
+    RolloutOutcome& outcome = result.outcomes[b];
+    outcome.flags = host_flags[b];
+    outcome.max_condition = hc[b];
+    outcome.regularized_steps = hr(b);
+    outcome.inversion_failures = hfail(b);
+  }
+}
+
+}  // namespace
+
+RomResult run_rollouts(const Model& model, const std::string& scene_path, const std::vector<std::string>& names,
+                       const std::vector<RolloutCase>& cases, const RomSettings& settings,
+                       const HyperReduction& reduction, const std::function<void(const RomProgress&)>& progress) {
+  settings.validate();
+  if (model.latent_dim > rom::max_latent_dim)
+    throw std::runtime_error("the reduced model supports latent dimensions up to " +
+                             std::to_string(rom::max_latent_dim) + "; the model has " +
+                             std::to_string(model.latent_dim));
+  if (cases.empty()) throw std::runtime_error("no rollouts to run: the parameter list is empty");
+  if (reduction.samples.empty() || reduction.nodes.empty())
+    throw std::runtime_error("the hyper-reduction has no sample points or no nodes");
+  const auto start = Clock::now();
+  RomResult result;
+  result.parameter_names = names;
+  result.cases = cases;
+  result.latent_dim = model.latent_dim;
+
+  std::vector<rom::RolloutLoads> loads;
+  std::vector<double> xhat0, xhatdot0;
+  Scene first;
+  std::vector<double> first_xhat, first_xhatdot, first_velocity;
+  for (std::size_t c = 0; c < cases.size(); ++c) {
+    if (cases[c].values.size() != names.size())
+      throw std::runtime_error("rollout " + std::to_string(c) + " has " + std::to_string(cases[c].values.size()) +
+                               " parameter values for " + std::to_string(names.size()) + " names");
+    const Scene scene = scene_for_run(scene_path, names, cases[c].values);
+    if (c == 0) {
+      first = scene;
+      const ParticleSamples samples = sample_scene(scene);
+      check_model_fits_scene(model, scene, samples);
+      initial_state(model, samples, scene, first_xhat, first_xhatdot);
+      first_velocity = samples.velocity;
+    } else {
+      // One batch shares the grid, the material and the output times; its rollouts differ in loads only.
+      const bool same = scene.dx == first.dx && scene.material.youngs_modulus == first.material.youngs_modulus &&
+                        scene.material.poisson_ratio == first.material.poisson_ratio &&
+                        scene.material.density == first.material.density && scene.end_time == first.end_time &&
+                        scene.num_outputs == first.num_outputs && scene.domain.lo == first.domain.lo &&
+                        scene.domain.hi == first.domain.hi;
+      if (!same)
+        throw std::runtime_error("rollout " + std::to_string(c) +
+                                 ": its parameters change the grid, material or output times; a batch may vary loads "
+                                 "and boundary values only");
+      const ParticleSamples samples = sample_scene(scene);
+      if (samples.velocity != first_velocity)
+        throw std::runtime_error("rollout " + std::to_string(c) +
+                                 ": its parameters change the initial velocity; run it in a batch of its own");
+    }
+    loads.push_back(loads_for_scene(scene, model));
+    xhat0.insert(xhat0.end(), first_xhat.begin(), first_xhat.end());
+    xhatdot0.insert(xhatdot0.end(), first_xhatdot.begin(), first_xhatdot.end());
+  }
+  result.setup_seconds = seconds_since(start);
+  nn::dispatch_max_width(model.layout().widest, [&](auto width) {
+    step_batch<decltype(width)::value>(model, first, loads, xhat0, xhatdot0, settings, reduction, result, progress);
+  });
+  return result;
+}
+
+DecodedFields decode(const Model& model, const std::vector<double>& X, const std::vector<double>& codes,
+                     const std::vector<double>& rates) {
+  const int r = model.latent_dim;
+  const std::size_t P = X.size() / 3, frames = codes.size() / r;
+  const Vector params = upload<Vector>("mpmrom::rom::params", model.weights, model.layout().num_params);
+  Cube g("mpmrom::rom::decode_x", frames, P, 3), v("mpmrom::rom::decode_v", frames, P, 3);
+  Quad F("mpmrom::rom::decode_F", frames, P, 3, 3), J("mpmrom::rom::decode_J", frames, P, 3, r);
+  nn::evaluate_with_jacobians(ExecutionSpace(), impl::device_mlp(model, params),
+                              nn::PointsView<real_t, MemorySpace>(upload<Matrix>("X", X, P, 3)),
+                              nn::CodesView<real_t, MemorySpace>(upload<Matrix>("codes", codes, frames, r)),
+                              nn::CodesView<real_t, MemorySpace>(upload<Matrix>("rates", rates, frames, r)), g, F, J,
+                              v);
+  return {download(g), download(v), download(F)};
+}
+
+}  // namespace mpmrom

@@ -1,0 +1,120 @@
+// The reduced-order model (paper, "Dynamics: velocity projection"): a batch of rollouts, each with its own parameter
+// values, advanced together on the default Kokkos execution space with Algorithm 1 (material-point-centric) or
+// Algorithm 2 (sample-node-centric), with hyper-reduction (a few sample points) or without (all points).
+// docs/rom.md describes the method, the precomputed sets and the failure policies.
+#pragma once
+
+#include <nlohmann/json.hpp>
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "model.hpp"
+#include "scene.hpp"
+#include "training_data.hpp"
+
+namespace mpmrom {
+
+enum class RomMethod { MaterialPoint, SampleNode };  // Algorithm 1, Algorithm 2
+enum class SampleSelection { Region, Random, Greedy };
+
+RomMethod rom_method_from_string(const std::string& name);  // "point" or "node"
+std::string to_string(RomMethod method);
+SampleSelection sample_selection_from_string(const std::string& name);  // "region", "random" or "greedy"
+std::string to_string(SampleSelection selection);
+
+struct RomSettings {
+  RomMethod method = RomMethod::MaterialPoint;
+  int samples = 15;  // sample material points; 0: every point (no hyper-reduction)
+  SampleSelection selection = SampleSelection::Region;
+  std::uint64_t seed = 1;          // random selection
+  double cfl = 0;                  // time step = cfl dx / (wave speed + fastest sample); 0: the scene's cfl
+  double envelope_margin = 0.25;   // cells of slack around the training motion when building the node set
+  int quadrature_order = 2;        // Algorithm 2: Gauss points per axis in each dual cell (1-3)
+  double newton_tolerance = 1e-4;  // Algorithm 2: inversion residual, in cells
+  int newton_iterations = 20;
+  // Re-projections with dg/dxhat at the trial next state (0: the paper's dg/dxhat at xhat(t_n) only).
+  int projection_iterations = 2;
+  double max_condition = 0;        // regularise the normal equations above this estimate (0: 0.01 / epsilon)
+  double regularization = 0;       // mu = regularization * trace / r (0: 100 epsilon)
+
+  nlohmann::json to_json() const;
+  void validate() const;  // throws std::invalid_argument naming the bad setting
+};
+
+// The precomputed sets of a hyper-reduced model (from the training motion the model reproduces).
+struct HyperReduction {
+  std::vector<int> samples;  // M: indices into the model's reference points
+  // Algorithm 1: the material points feeding the transfer, samples first (M, then the neighbours N).
+  std::vector<int> source_points;
+  // Algorithm 2: quadrature points (current configuration) and their volume weights.
+  std::vector<double> quadrature_x, quadrature_weight;
+  // I: grid nodes (global indices) and, per node, the sources (indices into source_points or the quadrature points)
+  // that can reach it: node n gathers node_sources[node_offsets[n] .. node_offsets[n + 1]).
+  std::vector<int> nodes, node_offsets, node_sources;
+
+  std::size_t num_sources() const { return node_offsets.empty() ? 0 : source_points.size() + quadrature_weight.size(); }
+  nlohmann::json summary() const;
+};
+
+// Picks settings.samples material points (all of them when 0). Greedy selection needs the full-order training runs
+// (data), whose velocities it fits; the other rules need only the model and the scene.
+std::vector<int> select_samples(const Model& model, const Scene& scene, const RomSettings& settings,
+                                const TrainingData* data);
+
+// Node set, neighbours and quadrature points for the given samples, from the motion of the model's training codes.
+HyperReduction build_hyper_reduction(const Model& model, const Scene& scene, const RomSettings& settings,
+                                     const std::vector<int>& samples);
+
+// One rollout: parameter values (in the order of the batch's parameter names) and, if known, its split.
+struct RolloutCase {
+  std::vector<double> values;
+  std::string split;  // "train", "test" or empty
+};
+
+struct RolloutOutcome {
+  int flags = 0;             // kernels/rom/sources.hpp RolloutFlag bits
+  int frames_completed = 0;  // output frames written before a fatal flag stopped it
+  double stopped_at = -1;    // time of the failure (s), -1 if none
+  double max_condition = 0;  // largest condition estimate of its normal equations
+  long regularized_steps = 0;
+  long inversion_failures = 0;  // Algorithm 2: quadrature points dropped for a failed inversion, all steps
+  std::string message;          // empty, or one line on what happened
+};
+
+struct RomResult {
+  std::vector<std::string> parameter_names;
+  std::vector<RolloutCase> cases;
+  int latent_dim = 0;
+  std::vector<double> times;          // output times (frames)
+  std::vector<double> xhat, xhatdot;  // (rollouts, frames, r)
+  std::vector<RolloutOutcome> outcomes;
+  long steps = 0;            // time steps taken (each advances every rollout)
+  double step_seconds = 0;   // wall time of the stepping alone, all steps
+  double setup_seconds = 0;  // initial projection and device set-up
+};
+
+struct RomProgress {
+  int frame = 0, frames = 0;
+  double time = 0;
+  long steps = 0;
+  double seconds = 0;
+};
+
+// Advances every case from the scene's initial state (projected onto the manifold) to its end time, recording the
+// latent state at the scene's output times. scene_path: the scene file whose parameters the cases set.
+RomResult run_rollouts(const Model& model, const std::string& scene_path, const std::vector<std::string>& names,
+                       const std::vector<RolloutCase>& cases, const RomSettings& settings,
+                       const HyperReduction& reduction, const std::function<void(const RomProgress&)>& progress = {});
+
+// Decoded fields of one rollout at points X (n, 3): x, v (frames, n, 3) and F (frames, n, 3, 3) from the latent
+// states codes and rates (frames, r).
+struct DecodedFields {
+  std::vector<double> x, v, F;
+};
+DecodedFields decode(const Model& model, const std::vector<double>& X, const std::vector<double>& codes,
+                     const std::vector<double>& rates);
+
+}  // namespace mpmrom
