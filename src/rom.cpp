@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <filesystem>
 #include <limits>
 #include <map>
 #include <numeric>
@@ -16,6 +17,7 @@
 
 #include "fom.hpp"
 #include "impl/device_data.hpp"
+#include "impl/rom_stepper.hpp"
 #include "kernels/rom/projection.hpp"
 #include "kernels/rom/sources.hpp"
 #include "kernels/rom/transfer.hpp"
@@ -153,14 +155,16 @@ std::vector<int> greedy_samples(const Model& model, const TrainingData& data, st
   const int r = model.latent_dim;
   const std::size_t P = model.num_points();
   // Snapshots: model codes whose run is among the loaded training runs, about 24 spread over all of them.
+  // Runs are matched by file name: the model records the paths it was trained from, which may have moved since.
+  const auto file_name = [](const std::string& path) { return std::filesystem::path(path).filename().string(); };
   std::map<std::string, std::size_t> run_index;
-  for (std::size_t i = 0; i < data.train.files.size(); ++i) run_index[data.train.files[i]] = i;
+  for (std::size_t i = 0; i < data.train.files.size(); ++i) run_index[file_name(data.train.files[i])] = i;
   struct Frame {
     std::size_t code, run, frame;
   };
   std::vector<Frame> frames;
   for (std::size_t c = 0; c < model.num_codes(); ++c) {
-    const auto it = run_index.find(model.runs.at(std::size_t(model.code_run[c])));
+    const auto it = run_index.find(file_name(model.runs.at(std::size_t(model.code_run[c]))));
     if (it == run_index.end()) continue;
     const Snapshot& run = data.train.runs[it->second];
     for (std::size_t f = 0; f < run.num_frames; ++f)
@@ -344,11 +348,11 @@ std::vector<int> select_samples(const Model& model, const Scene& scene, const Ro
   return {};
 }
 
-HyperReduction build_hyper_reduction(const Model& model, const Scene& scene, const RomSettings& settings,
-                                     const std::vector<int>& samples) {
+HyperReduction impl::hyper_reduction_from_motion(const Scene& scene, const RomSettings& settings,
+                                                 const std::vector<int>& samples,
+                                                 const std::vector<double>& positions, std::size_t P) {
   const GridGeometry<real_t> grid = grid_for_scene(scene);
-  const std::size_t P = model.num_points(), C = model.num_codes();
-  const std::vector<double> positions = training_positions(model);
+  const std::size_t C = positions.size() / (3 * P);
   const double margin = settings.envelope_margin;
   const auto position = [&](std::size_t c, std::size_t p) { return &positions[(c * P + p) * 3]; };
   HyperReduction h;
@@ -471,67 +475,12 @@ HyperReduction build_hyper_reduction(const Model& model, const Scene& scene, con
   return h;
 }
 
+HyperReduction build_hyper_reduction(const Model& model, const Scene& scene, const RomSettings& settings,
+                                     const std::vector<int>& samples) {
+  return impl::hyper_reduction_from_motion(scene, settings, samples, training_positions(model), model.num_points());
+}
+
 namespace {
-
-// The loads of one rollout's scene. region_mass: the model's mass in each force region (the full-order share).
-rom::RolloutLoads loads_for_scene(const Scene& scene, const Model& model) {
-  rom::RolloutLoads loads;
-  if (scene.forces.size() > std::size_t(kMaxExternalForces))
-    throw std::runtime_error("at most " + std::to_string(kMaxExternalForces) + " [[force]] entries are supported");
-  if (scene.dirichlet.size() > std::size_t(kMaxDirichletRegions))
-    throw std::runtime_error("at most " + std::to_string(kMaxDirichletRegions) + " [[dirichlet]] entries are supported");
-  for (const auto& f : scene.forces) {
-    double region_mass = 0;
-    for (std::size_t p = 0; p < model.num_points(); ++p)
-      if (f.region.contains({model.X[3 * p], model.X[3 * p + 1], model.X[3 * p + 2]})) region_mass += model.mass[p];
-    if (!(region_mass > 0)) throw std::runtime_error("a [[force]] region holds none of the model's material points");
-    const int k = loads.num_forces++;
-    for (int d = 0; d < 3; ++d) {
-      loads.force_per_mass[3 * k + d] = real_t(f.force[d] / region_mass);
-      loads.force_box[6 * k + d] = real_t(f.region.lo[d]);
-      loads.force_box[6 * k + 3 + d] = real_t(f.region.hi[d]);
-    }
-    loads.force_window[2 * k] = real_t(f.start);
-    loads.force_window[2 * k + 1] = real_t(std::min(f.end, 1e30));
-  }
-  GridBoundary& boundary = loads.boundary;
-  boundary.walls = to_contact(scene.walls);
-  boundary.ground = scene.ground.enabled;
-  boundary.ground_height = real_t(scene.ground.height);
-  boundary.ground_contact = to_contact(scene.ground.contact);
-  for (const auto& region : scene.dirichlet) {
-    const int r = boundary.num_dirichlet++;
-    for (int d = 0; d < 3; ++d) {
-      boundary.dirichlet_box[6 * r + d] = real_t(region.region.lo[d]);
-      boundary.dirichlet_box[6 * r + 3 + d] = real_t(region.region.hi[d]);
-      boundary.dirichlet_velocity[3 * r + d] = real_t(region.velocity[d]);
-    }
-    loads.dirichlet_window[2 * r] = real_t(region.start);
-    loads.dirichlet_window[2 * r + 1] = real_t(std::min(region.end, 1e30));
-  }
-  for (int d = 0; d < 3; ++d) loads.gravity[d] = real_t(scene.gravity[d]);
-  return loads;
-}
-
-rom::ReferenceDomain reference_domain(const Scene& scene) {
-  rom::ReferenceDomain domain;
-  if (scene.bodies.size() > std::size_t(rom::max_reference_bodies))
-    throw std::runtime_error("the sample-node ROM supports at most " + std::to_string(rom::max_reference_bodies) +
-                             " bodies");
-  for (const auto& body : scene.bodies) {
-    const int b = domain.num_bodies++;
-    domain.shape[b] = body.shape == ShapeKind::Box        ? rom::ReferenceDomain::Box
-                      : body.shape == ShapeKind::Cylinder ? rom::ReferenceDomain::Cylinder
-                                                          : rom::ReferenceDomain::Sphere;
-    for (int d = 0; d < 3; ++d) {
-      domain.center[3 * b + d] = real_t(body.center[d]);
-      domain.half_extents[3 * b + d] = real_t(body.half_extents[d]);
-    }
-    domain.radius[b] = real_t(body.radius);
-    domain.half_height[b] = real_t(body.height / 2);
-  }
-  return domain;
-}
 
 // The scene's material points must be the model's reference points: a model trained on another scene (or another
 // resolution) cannot be rolled out on this one.
@@ -594,7 +543,68 @@ void initial_state(const Model& model, const ParticleSamples& samples, const Sce
   xhatdot = b;
 }
 
-std::string describe_flags(int flags) {
+}  // namespace
+
+rom::RolloutLoads impl::loads_for_scene(const Scene& scene, const ReferencePoints& model) {
+  rom::RolloutLoads loads;
+  if (scene.forces.size() > std::size_t(kMaxExternalForces))
+    throw std::runtime_error("at most " + std::to_string(kMaxExternalForces) + " [[force]] entries are supported");
+  if (scene.dirichlet.size() > std::size_t(kMaxDirichletRegions))
+    throw std::runtime_error("at most " + std::to_string(kMaxDirichletRegions) + " [[dirichlet]] entries are supported");
+  for (const auto& f : scene.forces) {
+    double region_mass = 0;
+    for (std::size_t p = 0; p < model.mass.size(); ++p)
+      if (f.region.contains({model.X[3 * p], model.X[3 * p + 1], model.X[3 * p + 2]})) region_mass += model.mass[p];
+    if (!(region_mass > 0)) throw std::runtime_error("a [[force]] region holds none of the model's material points");
+    const int k = loads.num_forces++;
+    for (int d = 0; d < 3; ++d) {
+      loads.force_per_mass[3 * k + d] = real_t(f.force[d] / region_mass);
+      loads.force_box[6 * k + d] = real_t(f.region.lo[d]);
+      loads.force_box[6 * k + 3 + d] = real_t(f.region.hi[d]);
+    }
+    loads.force_window[2 * k] = real_t(f.start);
+    loads.force_window[2 * k + 1] = real_t(std::min(f.end, 1e30));
+  }
+  GridBoundary& boundary = loads.boundary;
+  boundary.walls = to_contact(scene.walls);
+  boundary.ground = scene.ground.enabled;
+  boundary.ground_height = real_t(scene.ground.height);
+  boundary.ground_contact = to_contact(scene.ground.contact);
+  for (const auto& region : scene.dirichlet) {
+    const int r = boundary.num_dirichlet++;
+    for (int d = 0; d < 3; ++d) {
+      boundary.dirichlet_box[6 * r + d] = real_t(region.region.lo[d]);
+      boundary.dirichlet_box[6 * r + 3 + d] = real_t(region.region.hi[d]);
+      boundary.dirichlet_velocity[3 * r + d] = real_t(region.velocity[d]);
+    }
+    loads.dirichlet_window[2 * r] = real_t(region.start);
+    loads.dirichlet_window[2 * r + 1] = real_t(std::min(region.end, 1e30));
+  }
+  for (int d = 0; d < 3; ++d) loads.gravity[d] = real_t(scene.gravity[d]);
+  return loads;
+}
+
+rom::ReferenceDomain impl::reference_domain(const Scene& scene) {
+  rom::ReferenceDomain domain;
+  if (scene.bodies.size() > std::size_t(rom::max_reference_bodies))
+    throw std::runtime_error("the sample-node ROM supports at most " + std::to_string(rom::max_reference_bodies) +
+                             " bodies");
+  for (const auto& body : scene.bodies) {
+    const int b = domain.num_bodies++;
+    domain.shape[b] = body.shape == ShapeKind::Box        ? rom::ReferenceDomain::Box
+                      : body.shape == ShapeKind::Cylinder ? rom::ReferenceDomain::Cylinder
+                                                          : rom::ReferenceDomain::Sphere;
+    for (int d = 0; d < 3; ++d) {
+      domain.center[3 * b + d] = real_t(body.center[d]);
+      domain.half_extents[3 * b + d] = real_t(body.half_extents[d]);
+    }
+    domain.radius[b] = real_t(body.radius);
+    domain.half_height[b] = real_t(body.height / 2);
+  }
+  return domain;
+}
+
+std::string impl::describe_flags(int flags) {
   std::vector<std::string> causes;
   if (flags & rom::flag_inverted) causes.push_back("an inverted deformation gradient (det F <= 0)");
   if (flags & rom::flag_not_finite) causes.push_back("a non-finite projected velocity");
@@ -605,203 +615,6 @@ std::string describe_flags(int flags) {
   for (std::size_t i = 0; i < causes.size(); ++i) out += (i ? "; " : "") + causes[i];
   return out;
 }
-
-// The time-stepping loop for one compiled network width.
-template <int MaxWidth>
-void step_batch(const Model& model, const Scene& scene, const std::vector<rom::RolloutLoads>& host_loads,
-                const std::vector<double>& xhat0, const std::vector<double>& xhatdot0, const RomSettings& settings,
-                const HyperReduction& h, RomResult& result, const std::function<void(const RomProgress&)>& progress) {
-  const ExecutionSpace space;
-  const int B = int(host_loads.size()), r = model.latent_dim;
-  const int S = int(h.samples.size()), I = int(h.nodes.size());
-  const bool point_method = settings.method == RomMethod::MaterialPoint;
-  const int K = point_method ? int(h.source_points.size()) : int(h.quadrature_weight.size());
-  const GridGeometry<real_t> grid = grid_for_scene(scene);
-  const ElasticMaterial<real_t> material = material_for_scene(scene);
-  const bool apic = scene.transfer == TransferKind::APIC;
-  const real_t wave_speed = stable_time_step_wave_speed(material, real_t(scene.material.density));
-  const double cfl = settings.cfl > 0 ? settings.cfl : scene.cfl;
-  constexpr double epsilon = std::numeric_limits<real_t>::epsilon();
-
-  const Vector params = upload<Vector>("mpmrom::rom::params", model.weights, model.layout().num_params);
-  const rom::MlpManifold<MaxWidth, MemorySpace> manifold{impl::device_mlp(model, params)};
-
-  // Static data.
-  std::vector<double> X_src, mass_src, volume_src, X_samples;
-  for (const int p : h.source_points) {
-    X_src.insert(X_src.end(), model.X.begin() + 3 * p, model.X.begin() + 3 * p + 3);
-    mass_src.push_back(model.mass[p]);
-    volume_src.push_back(model.volume[p]);
-  }
-  for (const int s : h.samples) X_samples.insert(X_samples.end(), model.X.begin() + 3 * s, model.X.begin() + 3 * s + 3);
-  const Matrix points_X = upload<Matrix>("mpmrom::rom::source_X", X_src, X_src.size() / 3, 3);
-  const Vector points_mass = upload<Vector>("mpmrom::rom::source_mass", mass_src, mass_src.size());
-  const Vector points_volume = upload<Vector>("mpmrom::rom::source_volume", volume_src, volume_src.size());
-  const Matrix samples_X = upload<Matrix>("mpmrom::rom::samples_X", X_samples, S, 3);
-  const Matrix quadrature_x =
-      upload<Matrix>("mpmrom::rom::quadrature_x", h.quadrature_x, h.quadrature_weight.size(), 3);
-  const Vector quadrature_w =
-      upload<Vector>("mpmrom::rom::quadrature_w", h.quadrature_weight, h.quadrature_weight.size());
-  const auto nodes = upload_indices("mpmrom::rom::nodes", h.nodes);
-  const auto offsets = upload_indices("mpmrom::rom::node_offsets", h.node_offsets);
-  const auto node_sources = upload_indices("mpmrom::rom::node_sources", h.node_sources);
-  std::vector<int> slot_host(std::size_t(grid.num_nodes()), -1);
-  for (int n = 0; n < I; ++n) slot_host[h.nodes[n]] = n;
-  const auto node_slot = upload_indices("mpmrom::rom::node_slot", slot_host);
-  Kokkos::View<rom::RolloutLoads*, MemorySpace> loads("mpmrom::rom::loads", B);
-  {
-    auto host = Kokkos::create_mirror_view(loads);
-    for (int b = 0; b < B; ++b) host(b) = host_loads[b];
-    Kokkos::deep_copy(loads, host);
-  }
-
-  // State and work arrays.
-  std::vector<double> xhat_all, xhatdot_all;
-  for (int b = 0; b < B; ++b) {
-    xhat_all.insert(xhat_all.end(), xhat0.begin() + std::size_t(b) * r, xhat0.begin() + std::size_t(b + 1) * r);
-    xhatdot_all.insert(xhatdot_all.end(), xhatdot0.begin() + std::size_t(b) * r,
-                       xhatdot0.begin() + std::size_t(b + 1) * r);
-  }
-  const Matrix xhat = upload<Matrix>("mpmrom::rom::xhat", xhat_all, B, r);
-  const Matrix xhatdot = upload<Matrix>("mpmrom::rom::xhatdot", xhatdot_all, B, r);
-  rom::SourceView<MemorySpace> sources("mpmrom::rom::sources", B, K, rom::source_size);
-  Cube sample_x("mpmrom::rom::sample_x", B, S, 3), sample_v("mpmrom::rom::sample_v", B, S, 3);
-  Quad sample_J("mpmrom::rom::sample_J", B, S, 3, r);
-  Cube node_v("mpmrom::rom::node_v", B, I, 3), trial_x("mpmrom::rom::trial_x", B, S, 3);
-  Matrix xhat_next("mpmrom::rom::xhat_next", B, r), xhatdot_next("mpmrom::rom::xhatdot_next", B, r);
-  Cube reference("mpmrom::rom::reference", point_method ? 0 : B, point_method ? 0 : K, 3);
-  Kokkos::View<unsigned char**, MemorySpace> converged("mpmrom::rom::converged", point_method ? 0 : B,
-                                                      point_method ? 0 : K);
-  Kokkos::View<int*, MemorySpace> failures("mpmrom::rom::failures", B), flags("mpmrom::rom::flags", B);
-  Vector max_condition("mpmrom::rom::max_condition", B);
-  Kokkos::View<int*, MemorySpace> regularized("mpmrom::rom::regularized", B);
-
-  rom::ProjectionGuard guard;
-  guard.max_condition = real_t(settings.max_condition > 0 ? settings.max_condition : 0.01 / epsilon);
-  guard.regularization = real_t(settings.regularization > 0 ? settings.regularization : 100 * epsilon);
-  rom::NewtonSettings newton;
-  newton.tolerance = real_t(settings.newton_tolerance * scene.dx);
-  newton.max_iterations = settings.newton_iterations;
-  const rom::ReferenceDomain domain = reference_domain(scene);
-
-  const int frames = scene.num_outputs + 1;
-  result.times.clear();
-  result.xhat.assign(std::size_t(B) * frames * r, 0.0);
-  result.xhatdot.assign(std::size_t(B) * frames * r, 0.0);
-  result.outcomes.assign(B, RolloutOutcome{});
-  std::vector<int> host_flags(B, 0);
-  const auto record = [&](int frame) {
-    const auto xh = download(xhat), xd = download(xhatdot);
-    auto hf = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), flags);
-    for (int b = 0; b < B; ++b) {
-      RolloutOutcome& outcome = result.outcomes[b];
-      const bool fatal = hf(b) & rom::fatal_flags;
-      if (!fatal) outcome.frames_completed = frame + 1;
-      for (int q = 0; q < r; ++q) {
-        const std::size_t at = (std::size_t(b) * frames + frame) * r + q;
-        result.xhat[at] = xh[std::size_t(b) * r + q];  // a stopped rollout keeps its last good state
-        result.xhatdot[at] = xd[std::size_t(b) * r + q];
-      }
-    }
-  };
-  const auto check_flags = [&](double time) {
-    auto hf = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), flags);
-    for (int b = 0; b < B; ++b) {
-      if ((hf(b) & rom::fatal_flags) && !(host_flags[b] & rom::fatal_flags)) {
-        result.outcomes[b].stopped_at = time;
-        result.outcomes[b].message = "stopped at t = " + std::to_string(time) + " s: " + describe_flags(hf(b));
-      }
-      host_flags[b] = hf(b);
-    }
-  };
-
-  const auto start = Clock::now();
-  double time = 0;
-  real_t max_speed = 0;
-  result.times.push_back(0.0);
-  record(0);
-  for (int frame = 1; frame < frames; ++frame) {
-    const double target = scene.end_time * frame / scene.num_outputs;
-    const double dt_max = cfl * scene.dx / (double(wave_speed) + double(max_speed));
-    const long substeps = std::max(1L, long(std::ceil((target - time) / dt_max - 1e-9)));
-    const double dt_interval = (target - time) / double(substeps);
-    for (long sub = 0; sub < substeps; ++sub) {
-      const real_t t = real_t(time), dt = real_t(dt_interval);
-      if (point_method) {
-        Kokkos::parallel_for(
-            "mpmrom::rom::point_sources", Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>>(space, 0, long(B) * K),
-            rom::MaterialPointSources<decltype(manifold), MemorySpace>{
-                manifold, points_X, points_mass, points_volume, xhat, xhatdot, loads, material, t, dt, apic, sources,
-                sample_x, sample_J, flags});
-      } else {
-        Kokkos::parallel_for(
-            "mpmrom::rom::sample_kinematics",
-            Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>>(space, 0, long(B) * S),
-            rom::SampleKinematics<decltype(manifold), MemorySpace>{manifold, samples_X, xhat, xhatdot, sample_x,
-                                                                    sample_J});
-        Kokkos::parallel_for(
-            "mpmrom::rom::quadrature_sources",
-            Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>>(space, 0, long(B) * K),
-            rom::QuadratureSources<decltype(manifold), MemorySpace>{
-                manifold, quadrature_x, quadrature_w, domain, real_t(scene.material.density), newton, xhat, xhatdot,
-                loads, material, t, dt, apic, reference, converged, sources, failures, flags});
-      }
-      Kokkos::parallel_for("mpmrom::rom::gather_nodes",
-                           Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>>(space, 0, long(B) * I),
-                           rom::GatherNodeVelocities<MemorySpace>{grid, nodes, offsets, node_sources, sources, loads,
-                                                                  t, dt, node_v});
-      real_t speed = 0;
-      Kokkos::parallel_reduce(
-          "mpmrom::rom::g2p_samples", Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>>(space, 0, long(B) * S),
-          rom::SampleVelocities<MemorySpace>{grid, node_slot, sample_x, node_v, sample_v, flags},
-          Kokkos::Max<real_t>(speed));
-      using Projection = rom::ProjectVelocities<ExecutionSpace, MemorySpace>;
-      const auto project = [&]() {
-        Kokkos::parallel_for("mpmrom::rom::project",
-                             Kokkos::TeamPolicy<ExecutionSpace>(space, B, Kokkos::AUTO)
-                                 .set_scratch_size(0, Kokkos::PerTeam(Projection::scratch_bytes(r))),
-                             Projection{r, sample_J, sample_v, xhat, xhat_next, xhatdot_next, guard, dt, flags,
-                                        max_condition, regularized});
-      };
-      Kokkos::deep_copy(space, xhat_next, xhat);
-      Kokkos::deep_copy(space, xhatdot_next, xhatdot);
-      project();
-      // Re-project with J at the trial next state, so that the new state's own velocity field J(xhat_n+1) xhatdot
-      // reproduces the transferred velocities (with J(xhat_n) the manifold's curvature is counted twice).
-      for (int iteration = 0; iteration < settings.projection_iterations; ++iteration) {
-        Kokkos::parallel_for(
-            "mpmrom::rom::sample_jacobians",
-            Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>>(space, 0, long(B) * S),
-            rom::SampleKinematics<decltype(manifold), MemorySpace>{manifold, samples_X, xhat_next, xhatdot_next,
-                                                                    trial_x, sample_J});
-        project();
-      }
-      Kokkos::deep_copy(space, xhat, xhat_next);
-      Kokkos::deep_copy(space, xhatdot, xhatdot_next);
-      max_speed = speed;
-      time = sub + 1 == substeps ? target : time + dt_interval;
-      ++result.steps;
-    }
-    check_flags(time);
-    result.times.push_back(target);
-    record(frame);
-    if (progress) progress({frame, frames - 1, time, result.steps, seconds_since(start)});
-  }
-  Kokkos::fence();
-  result.step_seconds = seconds_since(start);
-  const auto hc = download(max_condition);
-  auto hr = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), regularized);
-  auto hfail = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), failures);
-  for (int b = 0; b < B; ++b) {
-    RolloutOutcome& outcome = result.outcomes[b];
-    outcome.flags = host_flags[b];
-    outcome.max_condition = hc[b];
-    outcome.regularized_steps = hr(b);
-    outcome.inversion_failures = hfail(b);
-  }
-}
-
-}  // namespace
 
 RomResult run_rollouts(const Model& model, const std::string& scene_path, const std::vector<std::string>& names,
                        const std::vector<RolloutCase>& cases, const RomSettings& settings,
@@ -851,13 +664,16 @@ RomResult run_rollouts(const Model& model, const std::string& scene_path, const 
         throw std::runtime_error("rollout " + std::to_string(c) +
                                  ": its parameters change the initial velocity; run it in a batch of its own");
     }
-    loads.push_back(loads_for_scene(scene, model));
+    loads.push_back(impl::loads_for_scene(scene, {model.X, model.mass, model.volume}));
     xhat0.insert(xhat0.end(), first_xhat.begin(), first_xhat.end());
     xhatdot0.insert(xhatdot0.end(), first_xhatdot.begin(), first_xhatdot.end());
   }
   result.setup_seconds = seconds_since(start);
+  const Vector params = upload<Vector>("mpmrom::rom::params", model.weights, model.layout().num_params);
   nn::dispatch_max_width(model.layout().widest, [&](auto width) {
-    step_batch<decltype(width)::value>(model, first, loads, xhat0, xhatdot0, settings, reduction, result, progress);
+    const rom::MlpManifold<decltype(width)::value, MemorySpace> manifold{impl::device_mlp(model, params)};
+    impl::step_batch(manifold, model.latent_dim, {model.X, model.mass, model.volume}, first, loads, xhat0, xhatdot0,
+                     settings, reduction, result, progress);
   });
   return result;
 }

@@ -1,0 +1,48 @@
+#!/usr/bin/env bash
+# Reduced-model accuracy on the paper's two examples, each configuration rolled out over the scene's whole design
+# (train and test runs in one batch) and evaluated against the full-order runs:
+#   poke  : Algorithm 1 and 2, all points and 15 greedy samples (paper: r = 5, 15 samples, 0.50 % / 0.55 %);
+#   table2: shear_cylinder_17, Algorithm 1 and 2, all 17 points and 6 greedy samples (paper Table 2).
+# Usage: scripts/rom_experiments.sh poke|table2 [BUILD_DIR] [OUT_DIR]
+# Needs the sweep and model first: poke from scripts/main.sh (out/poke_cylinder, its model.h5), table2 from
+# scripts/table1_shear.sh (out/table1/shear17 and its lambda1 = lambda2 = 1 model).
+set -euo pipefail
+here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+experiment=${1:?usage: rom_experiments.sh poke|table2 [BUILD_DIR] [OUT_DIR]}
+build=${2:-$here/build/double}
+mpmrom="$build/apps/mpmrom"
+export OMP_PROC_BIND=${OMP_PROC_BIND:-false}
+case "$experiment" in
+  poke)
+    out=${3:-$here/out/rom_poke}
+    data=$here/out/poke_cylinder; model=${MODEL:-$data/model.h5}; scene=$here/scenes/poke_cylinder.toml; few=15;;
+  table2)
+    out=${3:-$here/out/rom_table2}
+    data=$here/out/table1/shear17; model=${MODEL:-$here/out/table1/shear17_l1_1_l2_1.h5}
+    scene=$here/scenes/shear_cylinder_17.toml; few=6;;
+  *) echo "rom_experiments.sh: unknown experiment '$experiment'" >&2; exit 2;;
+esac
+mkdir -p "$out"
+for method in point node; do
+  for samples in 0 "$few"; do
+    name="${method}_${samples}"
+    "$mpmrom" -q rollout "$model" "$scene" --out "$out/$name.h5" --method "$method" --samples "$samples" \
+      --selection greedy --data "$data" --params "$data/design.csv" --json > "$out/$name.rollout.json"
+    "$mpmrom" -q evaluate "$out/$name.h5" "$data" --json > "$out/$name.errors.json"
+  done
+done
+python3 - "$out" "$few" <<'PY'
+import json, pathlib, sys
+out, few = pathlib.Path(sys.argv[1]), sys.argv[2]
+metrics = ("position_error", "displacement_error", "velocity_error", "F_error", "strain_error")
+print("| method | samples | split | " + " | ".join(m.replace("_error", "") for m in metrics) + " | s per step |")
+print("| --- | --- | --- | " + " | ".join("---" for _ in metrics) + " | --- |")
+for method, label in (("point", "Algorithm 1 (material point)"), ("node", "Algorithm 2 (sample node)")):
+    for samples in ("0", few):
+        e = json.loads((out / f"{method}_{samples}.errors.json").read_text())
+        t = json.loads((out / f"{method}_{samples}.rollout.json").read_text())
+        for split in ("train", "test"):
+            cells = [f"{100 * e[split][m]:.3g} %" for m in metrics]
+            print(f"| {label} | {'all' if samples == '0' else samples} | {split} | " + " | ".join(cells) +
+                  f" | {t['rom_step_seconds']:.3g} |")
+PY

@@ -1,0 +1,417 @@
+// The reduced-order model: the network's second-order kinematics against finite differences, the guarded normal-
+// equation solve against Eigen, Newton inversion against maps with known inverses, a ROM on an exact (affine)
+// manifold against the full-order model for both algorithms, and a batch of identical rollouts.
+#include <Eigen/Dense>
+
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "backends.hpp"
+#include "fom.hpp"
+#include "impl/rom_stepper.hpp"
+#include "kernels/nn/mlp_kinematics.hpp"
+#include "kernels/rom/inversion.hpp"
+#include "kernels/rom/projection.hpp"
+#include "sampling.hpp"
+
+namespace mpmrom::test {
+namespace {
+
+constexpr double eps = std::numeric_limits<real_t>::epsilon();
+
+// ---------------------------------------------------------------------------------------------------------------
+// Kinematics of the network: v, Fdot (second order) and dg/dxhat against central differences of
+// SerialMlpForwardJacobian along xhatdot, in double whatever the build precision (the kernel is a template).
+TEST(RomKinematics, MatchesFiniteDifferencesOfTheJacobian) {
+  const int r = 5;
+  const nn::MlpLayout layout = nn::MlpLayout::make(r, 16, 4);
+  Kokkos::View<double*, Kokkos::HostSpace> params("params", layout.num_params);
+  std::mt19937 gen(3);
+  std::normal_distribution<double> normal(0, 0.5);
+  for (int i = 0; i < layout.num_params; ++i) params(i) = normal(gen);
+  nn::Mlp<double, Kokkos::HostSpace> mlp;
+  mlp.layout = layout;
+  mlp.params = params;
+  for (int d = 0; d < 3; ++d) {
+    mlp.standardization.input_mean[d] = 0.1 * d;
+    mlp.standardization.input_scale[d] = 0.3 + 0.1 * d;
+    mlp.standardization.output_scale[d] = 0.05 * (d + 1);
+  }
+  const double X[3] = {0.1, -0.2, 0.3};
+  double xhat[r], rate[r];
+  for (int q = 0; q < r; ++q) {
+    xhat[q] = normal(gen);
+    rate[q] = normal(gen);
+  }
+  nn::PointKinematics<double> kin;
+  double J[3 * r];
+  nn::SerialMlpKinematics<32>(mlp, X, xhat, rate, kin, J);
+  // Central differences of step h along xhatdot: truncation ~ h^2 |g'''| ~ 1e-12, rounding ~ eps / h ~ 1e-10.
+  const double h = 1e-6, tolerance = 1e-8;
+  double plus[r], minus[r];
+  for (int q = 0; q < r; ++q) {
+    plus[q] = xhat[q] + h * rate[q];
+    minus[q] = xhat[q] - h * rate[q];
+  }
+  double g0[3], gp[3], gm[3], F0[3][3], Fp[3][3], Fm[3][3], J0[3 * r], Jp[3 * r], Jm[3 * r];
+  nn::SerialMlpForwardJacobian<32>(mlp, X, xhat, g0, F0, J0);
+  nn::SerialMlpForwardJacobian<32>(mlp, X, plus, gp, Fp, Jp);
+  nn::SerialMlpForwardJacobian<32>(mlp, X, minus, gm, Fm, Jm);
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_NEAR(kin.g[i], g0[i], 1e-14);
+    EXPECT_NEAR(kin.v[i], (gp[i] - gm[i]) / (2 * h), tolerance);
+    for (int j = 0; j < 3; ++j) {
+      EXPECT_NEAR(kin.F[i][j], F0[i][j], 1e-14);
+      EXPECT_NEAR(kin.Fdot[i][j], (Fp[i][j] - Fm[i][j]) / (2 * h), tolerance);
+    }
+    for (int q = 0; q < r; ++q) EXPECT_NEAR(J[i * r + q], J0[i * r + q], 1e-14);
+  }
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// The guarded r x r solve of the projection against Eigen.
+struct SolveOutcome {
+  std::vector<double> x;
+  int flags;
+  double condition;
+};
+
+SolveOutcome guarded_solve(const Eigen::MatrixXd& A, const Eigen::VectorXd& b, const rom::ProjectionGuard& guard) {
+  const int r = int(A.rows());
+  real_t a[rom::max_latent_dim * rom::max_latent_dim], rhs[rom::max_latent_dim], x[rom::max_latent_dim];
+  for (int i = 0; i < r; ++i) {
+    rhs[i] = real_t(b(i));
+    for (int j = 0; j < r; ++j) a[i * rom::max_latent_dim + j] = real_t(A(i, j));
+  }
+  real_t condition = 0;
+  const int flags = rom::SerialGuardedSolve(a, rhs, r, guard, x, condition);
+  return {std::vector<double>(x, x + r), flags, double(condition)};
+}
+
+rom::ProjectionGuard default_guard() {
+  rom::ProjectionGuard guard;
+  guard.max_condition = real_t(0.01 / eps);
+  guard.regularization = real_t(100 * eps);
+  return guard;
+}
+
+TEST(RomProjection, WellConditionedNormalEquationsMatchEigen) {
+  std::mt19937 gen(7);
+  std::normal_distribution<double> normal(0, 1);
+  for (int r : {1, 5, 12, 16}) {
+    Eigen::MatrixXd J(3 * 15 + r, r);
+    for (int i = 0; i < J.rows(); ++i)
+      for (int j = 0; j < J.cols(); ++j) J(i, j) = normal(gen);
+    const Eigen::MatrixXd A = J.transpose() * J;
+    const Eigen::VectorXd b = J.transpose() * Eigen::VectorXd::NullaryExpr(J.rows(), [&]() { return normal(gen); });
+    const Eigen::VectorXd expected = A.ldlt().solve(b);
+    const auto out = guarded_solve(A, b, default_guard());
+    EXPECT_EQ(out.flags, 0) << "r = " << r;
+    // Cholesky is backward stable: forward error <= c r eps cond(A) |x|; cond(A) of a 61 x 16 Gaussian J^T J < 100.
+    const double cond = Eigen::JacobiSVD<Eigen::MatrixXd>(A).singularValues()(0) /
+                        Eigen::JacobiSVD<Eigen::MatrixXd>(A).singularValues()(r - 1);
+    for (int i = 0; i < r; ++i) EXPECT_NEAR(out.x[i], expected(i), 10 * r * eps * cond * expected.norm()) << r;
+    // The estimate (max L_ii / min L_ii)^2 is a lower bound of cond_2(A).
+    EXPECT_LE(out.condition, cond * (1 + 1e-6));
+  }
+}
+
+TEST(RomProjection, IllConditionedSystemsAreRegularisedAndFlaggedNeverNaN) {
+  std::mt19937 gen(11);
+  std::normal_distribution<double> normal(0, 1);
+  const int r = 5;
+  // Two nearly equal columns: cond(A) ~ 1e20, beyond any precision's limit.
+  Eigen::MatrixXd J(45, r);
+  for (int i = 0; i < J.rows(); ++i)
+    for (int j = 0; j < r; ++j) J(i, j) = normal(gen);
+  J.col(4) = J.col(3) * (1 + 1e-10);
+  const Eigen::MatrixXd A = J.transpose() * J;
+  const Eigen::VectorXd b = J.transpose() * Eigen::VectorXd::NullaryExpr(J.rows(), [&]() { return normal(gen); });
+  const rom::ProjectionGuard guard = default_guard();
+  const auto out = guarded_solve(A, b, guard);
+  EXPECT_TRUE(out.flags & rom::flag_ill_conditioned);
+  EXPECT_FALSE(out.flags & rom::fatal_flags);
+  // It solved the regularised system (A + mu I) x = b: backward-stable residual relative to |A + mu I| |x|.
+  const double mu = double(guard.regularization) * A.trace() / r;
+  const Eigen::MatrixXd regularised = A + mu * Eigen::MatrixXd::Identity(r, r);
+  Eigen::VectorXd x(r);
+  for (int i = 0; i < r; ++i) {
+    ASSERT_TRUE(std::isfinite(out.x[i]));
+    x(i) = out.x[i];
+  }
+  EXPECT_LE((regularised * x - b).norm(), 100 * r * eps * (regularised.norm() * x.norm() + b.norm()));
+
+  // A zero system (no sample moves the manifold) cannot be regularised relative to its trace: flagged singular.
+  const auto singular = guarded_solve(Eigen::MatrixXd::Zero(r, r), Eigen::VectorXd::Ones(r), guard);
+  EXPECT_TRUE(singular.flags & rom::flag_singular);
+  // A NaN in the transferred velocities is caught, not passed on.
+  Eigen::VectorXd nan_rhs = b;
+  nan_rhs(2) = std::nan("");
+  const auto not_finite = guarded_solve(A.topLeftCorner(3, 3), nan_rhs.head(3), guard);
+  EXPECT_TRUE(not_finite.flags & rom::flag_not_finite);
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// Newton inversion against maps with known inverses.
+struct WarpMap {  // g(X) = X + a sin(k X_{i+1}) e_i: invertible while a k < 1/2 (F diagonally dominant)
+  real_t a, k;
+  KOKKOS_INLINE_FUNCTION void position_and_gradient(const real_t X[3], const real_t*, real_t g[3],
+                                                    real_t F[3][3]) const {
+    for (int i = 0; i < 3; ++i) {
+      const int j = (i + 1) % 3;
+      g[i] = X[i] + a * std::sin(k * X[j]);
+      for (int c = 0; c < 3; ++c) F[i][c] = (c == i ? real_t(1) : real_t(0)) + (c == j ? a * k * std::cos(k * X[j]) : 0);
+    }
+  }
+};
+
+struct FoldMap {  // g(X) = (X_0^2 + 1, X_1, X_2): no X maps to x_0 < 1, and F is singular at X_0 = 0
+  KOKKOS_INLINE_FUNCTION void position_and_gradient(const real_t X[3], const real_t*, real_t g[3],
+                                                    real_t F[3][3]) const {
+    g[0] = X[0] * X[0] + 1;
+    g[1] = X[1];
+    g[2] = X[2];
+    for (int i = 0; i < 3; ++i)
+      for (int c = 0; c < 3; ++c) F[i][c] = i == c ? real_t(1) : real_t(0);
+    F[0][0] = 2 * X[0];
+  }
+};
+
+TEST(RomInversion, NewtonFindsTheReferencePositionOfKnownMaps) {
+  const WarpMap warp{real_t(0.02), real_t(10)};  // a k = 0.2
+  rom::NewtonSettings settings;
+  settings.tolerance = real_t(1e-4 * 0.05);  // the ROM's default: 1e-4 cells of 5 cm
+  std::mt19937 gen(5);
+  std::uniform_real_distribution<double> uniform(-0.3, 0.3);
+  for (int trial = 0; trial < 50; ++trial) {
+    const real_t X_true[3] = {real_t(uniform(gen)), real_t(uniform(gen)), real_t(uniform(gen))};
+    real_t g[3], F[3][3];
+    warp.position_and_gradient(X_true, nullptr, g, F);
+    const Vec3<real_t> x{{g[0], g[1], g[2]}};
+    Vec3<real_t> X = x;  // start at the current position, as a cold start would
+    ASSERT_TRUE(rom::SerialInvertMap(warp, x, nullptr, settings, X));
+    // |g(X) - x| <= tol and |F^-1| <= 1 / (1 - a k) bound the error in X by 1.25 tol.
+    for (int d = 0; d < 3; ++d) EXPECT_NEAR(X[d], X_true[d], 1.25 * settings.tolerance + 16 * eps);
+  }
+  // No preimage: the iteration cannot reach the tolerance and reports failure instead of a wrong X.
+  const FoldMap fold;
+  Vec3<real_t> X{{real_t(0.5), 0, 0}};
+  EXPECT_FALSE(rom::SerialInvertMap(fold, Vec3<real_t>{{real_t(0.5), 0, 0}}, nullptr, settings, X));
+  // A singular F at the start is a failure too (det F <= 0).
+  X = Vec3<real_t>{{0, 0, 0}};
+  EXPECT_FALSE(rom::SerialInvertMap(fold, Vec3<real_t>{{real_t(2), 0, 0}}, nullptr, settings, X));
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// Exact manifolds: affine maps g(X; xhat) = X + b + A (X - c), xhat = (b, A row-major), r = 12.
+struct AffineManifold {
+  real_t c[3];
+  KOKKOS_INLINE_FUNCTION int latent_dim() const { return 12; }
+  KOKKOS_INLINE_FUNCTION void position_and_gradient(const real_t X[3], const real_t* xhat, real_t g[3],
+                                                    real_t F[3][3]) const {
+    for (int i = 0; i < 3; ++i) {
+      g[i] = X[i] + xhat[i];
+      for (int j = 0; j < 3; ++j) {
+        g[i] += xhat[3 + 3 * i + j] * (X[j] - c[j]);
+        F[i][j] = (i == j ? real_t(1) : real_t(0)) + xhat[3 + 3 * i + j];
+      }
+    }
+  }
+  KOKKOS_INLINE_FUNCTION void kinematics(const real_t X[3], const real_t* xhat, const real_t* rate,
+                                         nn::PointKinematics<real_t>& out, real_t* dgdxhat) const {
+    position_and_gradient(X, xhat, out.g, out.F);
+    for (int i = 0; i < 3; ++i) {
+      out.v[i] = rate[i];
+      for (int j = 0; j < 3; ++j) {
+        out.v[i] += rate[3 + 3 * i + j] * (X[j] - c[j]);
+        out.Fdot[i][j] = rate[3 + 3 * i + j];
+      }
+    }
+    if (dgdxhat == nullptr) return;
+    for (int i = 0; i < 3; ++i)
+      for (int q = 0; q < 12; ++q) {
+        real_t d = 0;
+        if (q < 3) d = q == i ? real_t(1) : real_t(0);
+        else if ((q - 3) / 3 == i) d = X[(q - 3) % 3] - c[(q - 3) % 3];
+        dgdxhat[i * 12 + q] = d;
+      }
+  }
+};
+
+// A box translating and spinning with negligible stiffness (stress ~1e-6 Pa: its effect over the run, ~1e-9 m, is far
+// below the tolerances); gravity and spin are set per test.
+Scene affine_scene(const Vec3d& gravity, const Vec3d& spin) {
+  const std::string text = std::string(R"(
+name = "affine_motion"
+[material]
+youngs_modulus = 1e-6
+poisson_ratio = 0.3
+density = 1000.0
+[[body]]
+shape = "box"
+center = [0.0, 0.0, 0.0]
+size = [0.2, 0.16, 0.12]
+spacing = 0.025
+velocity = [0.2, -0.1, 0.05]
+[grid]
+lo = [-0.5, -0.5, -0.5]
+hi = [0.5, 0.5, 0.5]
+dx = 0.05
+[time]
+end_time = 0.12
+outputs = 4
+cfl = 0.3
+)");
+  Scene scene = parse_scene(text, "affine_motion");
+  scene.gravity = gravity;
+  scene.bodies[0].angular_velocity = spin;
+  return scene;
+}
+
+struct Motion {
+  std::vector<double> X, mass, volume;
+  std::vector<std::vector<double>> positions, velocities;  // per output frame
+};
+
+Motion full_order_motion(const Scene& scene) {
+  FomSolver fom(scene);
+  Motion run;
+  std::vector<real_t> X, mass, volume;
+  fom.reference(X, mass, volume);
+  run.X.assign(X.begin(), X.end());
+  run.mass.assign(mass.begin(), mass.end());
+  run.volume.assign(volume.begin(), volume.end());
+  for (int frame = 0; frame <= scene.num_outputs; ++frame) {
+    fom.advance_to(scene.end_time * frame / scene.num_outputs);
+    const ParticleFrame f = fom.frame();
+    run.positions.emplace_back(f.x.begin(), f.x.end());
+    run.velocities.emplace_back(f.v.begin(), f.v.end());
+  }
+  return run;
+}
+
+// The body's initial translation and spin as an affine rate: (v, [w]x) about its center c = 0.
+std::vector<double> affine_rate(const Scene& scene) {
+  const Vec3d& v = scene.bodies[0].velocity;
+  const Vec3d& w = scene.bodies[0].angular_velocity;
+  return {v[0], v[1], v[2], 0, -w[2], w[1], w[2], 0, -w[0], -w[1], w[0], 0};
+}
+
+RomResult affine_rollouts(const Scene& scene, const Motion& run, RomMethod method, int samples, int batch) {
+  const std::size_t P = run.mass.size();
+  RomSettings settings;
+  settings.method = method;
+  settings.samples = samples;
+  std::vector<int> chosen(P);
+  std::iota(chosen.begin(), chosen.end(), 0);
+  if (samples > 0) {
+    std::mt19937 gen(2);
+    std::shuffle(chosen.begin(), chosen.end(), gen);
+    chosen.resize(samples);
+  }
+  std::vector<double> motion;
+  for (const auto& x : run.positions) motion.insert(motion.end(), x.begin(), x.end());
+  const HyperReduction reduction = impl::hyper_reduction_from_motion(scene, settings, chosen, motion, P);
+  const impl::ReferencePoints points{run.X, run.mass, run.volume};
+  const AffineManifold manifold{{0, 0, 0}};
+  const std::vector<double> rate = affine_rate(scene);
+  std::vector<double> xhat0, xhatdot0;
+  std::vector<rom::RolloutLoads> loads;
+  for (int b = 0; b < batch; ++b) {
+    xhat0.insert(xhat0.end(), 12, 0.0);
+    xhatdot0.insert(xhatdot0.end(), rate.begin(), rate.end());
+    loads.push_back(impl::loads_for_scene(scene, points));
+  }
+  RomResult result;
+  impl::step_batch(manifold, 12, points, scene, loads, xhat0, xhatdot0, settings, reduction, result, {});
+  return result;
+}
+
+// Largest deviation of the rollout's decoded positions and velocities from the given motion, over all frames.
+std::pair<double, double> deviation(const RomResult& result, const Motion& motion) {
+  const std::size_t P = motion.mass.size();
+  double worst_x = 0, worst_v = 0;
+  for (std::size_t f = 0; f < motion.positions.size(); ++f) {
+    const double* xhat = &result.xhat[f * 12];
+    const double* rate = &result.xhatdot[f * 12];
+    for (std::size_t p = 0; p < P; ++p)
+      for (int i = 0; i < 3; ++i) {
+        double x = motion.X[3 * p + i] + xhat[i], v = rate[i];
+        for (int j = 0; j < 3; ++j) {
+          x += xhat[3 + 3 * i + j] * motion.X[3 * p + j];
+          v += rate[3 + 3 * i + j] * motion.X[3 * p + j];
+        }
+        worst_x = std::max(worst_x, std::fabs(x - motion.positions[f][3 * p + i]));
+        worst_v = std::max(worst_v, std::fabs(v - motion.velocities[f][3 * p + i]));
+      }
+  }
+  return {worst_x, worst_v};
+}
+
+const std::vector<std::pair<RomMethod, int>> kConfigurations = {
+    {RomMethod::MaterialPoint, 0}, {RomMethod::MaterialPoint, 16}, {RomMethod::SampleNode, 0},
+    {RomMethod::SampleNode, 16}};
+
+// Free fall: the full-order model is exact here (a uniform field passes the transfers unchanged), so the ROM must
+// give the same velocities to rounding; positions may differ by the two time-step sequences, each within g t dt / 2
+// of the parabola.
+TEST(RomExactManifold, FreeFallMatchesTheFullOrderModel) {
+  const Scene scene = affine_scene({0, 0, -9.81}, {0, 0, 0});
+  const Motion fom = full_order_motion(scene);
+  const double dt_max = scene.cfl * scene.dx / 0.2, t = scene.end_time;
+  for (const auto& [method, samples] : kConfigurations) {
+    const RomResult result = affine_rollouts(scene, fom, method, samples, 1);
+    ASSERT_EQ(result.outcomes[0].flags & rom::fatal_flags, 0) << result.outcomes[0].message;
+    const auto [dx, dv] = deviation(result, fom);
+    EXPECT_LE(dv, 1e3 * eps) << to_string(method) << " " << samples;  // ~100 steps of O(1) sums
+    EXPECT_LE(dx, 9.81 * t * dt_max + 1e3 * eps) << to_string(method) << " " << samples;
+  }
+}
+
+// A spinning, translating box: its affine motion x = X + t (v + [w]x (X - c)) must be kept exactly: APIC with
+// C = Fdot F^-1 carries the affine field through P2G and G2P unchanged and dg/dxhat does not depend on xhat, so
+// xhatdot stays constant. (The full-order model drifts here at O(dt |grad v|^2): its C lags one step.)
+TEST(RomExactManifold, AffineMotionIsKeptExactly) {
+  const Scene scene = affine_scene({0, 0, 0}, {0.5, -1.0, 1.5});
+  Motion exact = full_order_motion(scene);  // for the reference points; the frames are replaced below
+  const std::vector<double> rate = affine_rate(scene);
+  const std::size_t P = exact.mass.size();
+  for (std::size_t f = 0; f < exact.positions.size(); ++f) {
+    const double t = scene.end_time * double(f) / scene.num_outputs;
+    for (std::size_t p = 0; p < P; ++p)
+      for (int i = 0; i < 3; ++i) {
+        double v = rate[i];
+        for (int j = 0; j < 3; ++j) v += rate[3 + 3 * i + j] * exact.X[3 * p + j];
+        exact.velocities[f][3 * p + i] = v;
+        exact.positions[f][3 * p + i] = exact.X[3 * p + i] + t * v;
+      }
+  }
+  for (const auto& [method, samples] : kConfigurations) {
+    const RomResult result = affine_rollouts(scene, exact, method, samples, 1);
+    ASSERT_EQ(result.outcomes[0].flags & rom::fatal_flags, 0) << result.outcomes[0].message;
+    const auto [dx, dv] = deviation(result, exact);
+    // Rounding of the transfers and the 12 x 12 solve over a few steps (velocities O(1), positions O(0.1)), plus the
+    // stiffness the test cannot switch off: accelerations below E / (rho dx), i.e. 2.4e-9 m/s over the run.
+    const double stiffness = scene.material.youngs_modulus / (scene.material.density * scene.dx) * scene.end_time;
+    EXPECT_LE(dv, 1e4 * eps + stiffness) << to_string(method) << " " << samples;
+    EXPECT_LE(dx, 1e3 * eps + stiffness * scene.end_time) << to_string(method) << " " << samples;
+  }
+}
+
+TEST(RomBatch, IdenticalRolloutsGiveIdenticalResults) {
+  const Scene scene = affine_scene({0, 0, -9.81}, {0.5, -1.0, 1.5});
+  const Motion run = full_order_motion(scene);
+  for (const RomMethod method : {RomMethod::MaterialPoint, RomMethod::SampleNode}) {
+    const RomResult result = affine_rollouts(scene, run, method, 16, 5);
+    const std::size_t per_rollout = result.xhat.size() / 5;
+    for (int b = 1; b < 5; ++b)
+      for (std::size_t i = 0; i < per_rollout; ++i) {
+        ASSERT_EQ(result.xhat[b * per_rollout + i], result.xhat[i]) << "rollout " << b;
+        ASSERT_EQ(result.xhatdot[b * per_rollout + i], result.xhatdot[i]) << "rollout " << b;
+      }
+  }
+}
+
+}  // namespace
+}  // namespace mpmrom::test
