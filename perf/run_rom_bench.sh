@@ -1,0 +1,50 @@
+#!/usr/bin/env bash
+# ROM step time against FOM step time on the same scene: one record per ROM configuration (Algorithm 1 and 2, all
+# points and SAMPLES samples), each holding the FOM's step time on the same scene from the same build, and the ratio.
+# The ROM figures come from `mpmrom rollout --json` (a batch of BATCH rollouts of the scene's first design run);
+# the FOM's from `mpmrom bench fom`.
+# Usage: perf/run_rom_bench.sh BUILD_DIR MODEL SCENE [SAMPLES] [BATCH]
+set -euo pipefail
+here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+build=${1:?usage: run_rom_bench.sh BUILD_DIR MODEL SCENE [SAMPLES] [BATCH]}
+model=${2:?model file}
+scene=${3:?scene file}
+samples=${4:-15}
+batch=${5:-1}
+export OMP_PROC_BIND=${OMP_PROC_BIND:-false}
+mpmrom="$build/apps/mpmrom"
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+fom=$("$mpmrom" -q bench fom "$scene" --steps 50 --json)
+# The first run of the scene's design, repeated BATCH times.
+python3 - "$scene" "$batch" "$work/params.csv" <<'PY'
+import sys, tomllib, itertools
+scene, batch, out = sys.argv[1], int(sys.argv[2]), sys.argv[3]
+design = tomllib.load(open(scene, "rb"))["design"]
+names = sorted(k for k in design if k not in ("kind", "test", "runs"))
+first = [design[n][0] for n in names]
+with open(out, "w") as f:
+    f.write(",".join(names) + "\n")
+    for _ in range(batch):
+        f.write(",".join(str(v) for v in first) + "\n")
+PY
+for method in point node; do
+  for n in 0 "$samples"; do
+    rom=$("$mpmrom" -q rollout "$model" "$scene" --out "$work/rom.h5" --method "$method" --samples "$n" \
+          --selection region --params "$work/params.csv" --json)
+    name=$(basename "$scene" .toml)
+    record=$(python3 - "$fom" "$rom" <<'PY'
+import json, sys
+fom, rom = json.loads(sys.argv[1]), json.loads(sys.argv[2])
+rom["fom_step_seconds"] = fom["fom_step_seconds"]
+rom["fom_particle_steps_per_s"] = fom["fom_particle_steps_per_s"]
+rom["rom_seconds_per_rollout_step"] = rom["rom_step_seconds"] / rom["rollouts"]
+rom["rom_over_fom_step_time"] = rom["rom_seconds_per_rollout_step"] / fom["fom_step_seconds"]
+print(json.dumps(rom))
+PY
+)
+    out="$here/perf/results/rom_${name}_${method}_samples${n}_$(echo "$rom" | sed -n 's/.*"backend":"\([^"]*\)".*/\1/p' | tr A-Z a-z)_$(echo "$rom" | sed -n 's/.*"precision":"\([^"]*\)".*/\1/p').json"
+    echo "$record" > "$out"
+    echo "$out: $(echo "$record" | python3 -c 'import json,sys; d=json.load(sys.stdin); print(f"ROM {d[\"rom_seconds_per_rollout_step\"]:.3g} s per rollout-step, FOM {d[\"fom_step_seconds\"]:.3g} s per step, ratio {d[\"rom_over_fom_step_time\"]:.3g}")')" >&2
+  done
+done
