@@ -45,6 +45,6 @@ PY
 )
     out="$here/perf/results/rom_${name}_${method}_samples${n}_$(echo "$rom" | sed -n 's/.*"backend":"\([^"]*\)".*/\1/p' | tr A-Z a-z)_$(echo "$rom" | sed -n 's/.*"precision":"\([^"]*\)".*/\1/p').json"
     echo "$record" > "$out"
-    echo "$out: $(echo "$record" | python3 -c 'import json,sys; d=json.load(sys.stdin); print(f"ROM {d[\"rom_seconds_per_rollout_step\"]:.3g} s per rollout-step, FOM {d[\"fom_step_seconds\"]:.3g} s per step, ratio {d[\"rom_over_fom_step_time\"]:.3g}")')" >&2
+    echo "$out: $(echo "$record" | python3 -c 'import json,sys; d=json.load(sys.stdin); print("ROM %.3g s per rollout-step, FOM %.3g s per step, ratio %.3g" % (d["rom_seconds_per_rollout_step"], d["fom_step_seconds"], d["rom_over_fom_step_time"]))')" >&2
   done
 done
