@@ -29,10 +29,10 @@ namespace {
 
 using ExecutionSpace = Kokkos::DefaultExecutionSpace;
 using MemorySpace = ExecutionSpace::memory_space;
-using Vector = Kokkos::View<real_t*, MemorySpace>;
-using Matrix = Kokkos::View<real_t**, Kokkos::LayoutRight, MemorySpace>;
-using Cube = Kokkos::View<real_t***, Kokkos::LayoutRight, MemorySpace>;
-using Quad = Kokkos::View<real_t****, Kokkos::LayoutRight, MemorySpace>;
+using Vector = impl::DeviceVector;
+using Matrix = impl::DeviceMatrix;
+using Cube = impl::DeviceCube;
+using Quad = impl::DeviceQuad;
 using Clock = std::chrono::steady_clock;
 using impl::download;
 using impl::upload;
@@ -636,7 +636,7 @@ RomResult run_rollouts(const Model& model, const std::string& scene_path, const 
   std::vector<rom::RolloutLoads> loads;
   std::vector<double> xhat0, xhatdot0;
   Scene first;
-  std::vector<double> first_xhat, first_xhatdot, first_velocity;
+  std::vector<double> first_xhat, first_xhatdot;
   for (std::size_t c = 0; c < cases.size(); ++c) {
     if (cases[c].values.size() != names.size())
       throw std::runtime_error("rollout " + std::to_string(c) + " has " + std::to_string(cases[c].values.size()) +
@@ -647,7 +647,6 @@ RomResult run_rollouts(const Model& model, const std::string& scene_path, const 
       const ParticleSamples samples = sample_scene(scene);
       check_model_fits_scene(model, scene, samples);
       initial_state(model, samples, scene, first_xhat, first_xhatdot);
-      first_velocity = samples.velocity;
     } else {
       // One batch shares the grid, the material and the output times; its rollouts differ in loads only.
       const bool same = scene.dx == first.dx && scene.material.youngs_modulus == first.material.youngs_modulus &&
@@ -659,8 +658,11 @@ RomResult run_rollouts(const Model& model, const std::string& scene_path, const 
         throw std::runtime_error("rollout " + std::to_string(c) +
                                  ": its parameters change the grid, material or output times; a batch may vary loads "
                                  "and boundary values only");
-      const ParticleSamples samples = sample_scene(scene);
-      if (samples.velocity != first_velocity)
+      bool same_motion = scene.bodies.size() == first.bodies.size();
+      for (std::size_t k = 0; same_motion && k < scene.bodies.size(); ++k)
+        same_motion = scene.bodies[k].velocity == first.bodies[k].velocity &&
+                      scene.bodies[k].angular_velocity == first.bodies[k].angular_velocity;
+      if (!same_motion)
         throw std::runtime_error("rollout " + std::to_string(c) +
                                  ": its parameters change the initial velocity; run it in a batch of its own");
     }

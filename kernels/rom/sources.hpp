@@ -64,6 +64,19 @@ KOKKOS_INLINE_FUNCTION void write_source(const SourceView<MemorySpace>& sources,
     }
 }
 
+// F of the kinematics and its determinant J; false (and the rollout flagged inverted) when J <= 0.
+template <class MemorySpace>
+KOKKOS_INLINE_FUNCTION bool deformation_gradient(const nn::PointKinematics<real_t>& kin,
+                                                 const Kokkos::View<int*, MemorySpace>& flags, int b, Mat3<real_t>& F,
+                                                 real_t& J) {
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) F(i, j) = kin.F[i][j];
+  J = determinant(F);
+  if (J > real_t(0)) return true;
+  Kokkos::atomic_or(&flags(b), int(flag_inverted));
+  return false;
+}
+
 template <class MemorySpace>
 KOKKOS_INLINE_FUNCTION void clear_source(const SourceView<MemorySpace>& sources, int b, int k) {
   for (int c = 0; c < source_size; ++c) sources(b, k, c) = real_t(0);
@@ -94,11 +107,8 @@ struct MaterialPointSources {
     const bool sample = k < int(sample_x.extent(1));
     manifold.kinematics(Xk, &xhat(b, 0), &xhatdot(b, 0), kin, sample ? &sample_J(b, k, 0, 0) : nullptr);
     Mat3<real_t> F;
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j) F(i, j) = kin.F[i][j];
-    const real_t J = determinant(F);
-    if (!(J > real_t(0))) {
-      Kokkos::atomic_or(&flags(b), int(flag_inverted));
+    real_t J;
+    if (!deformation_gradient(kin, flags, b, F, J)) {
       clear_source(sources, b, k);
       return;
     }
@@ -155,11 +165,8 @@ struct QuadratureSources {
     nn::PointKinematics<real_t> kin;
     manifold.kinematics(&Xq[0], &xhat(b, 0), &xhatdot(b, 0), kin, nullptr);
     Mat3<real_t> F;
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j) F(i, j) = kin.F[i][j];
-    const real_t J = determinant(F);
-    if (!(J > real_t(0))) {
-      Kokkos::atomic_or(&flags(b), int(flag_inverted));
+    real_t J;
+    if (!deformation_gradient(kin, flags, b, F, J)) {
       clear_source(sources, b, q);
       return;
     }

@@ -14,6 +14,11 @@
 namespace mpmrom::impl {
 
 using DeviceMemory = Kokkos::DefaultExecutionSpace::memory_space;
+// Row-major device arrays of the build's precision, rank 1 to 4.
+using DeviceVector = Kokkos::View<real_t*, DeviceMemory>;
+using DeviceMatrix = Kokkos::View<real_t**, Kokkos::LayoutRight, DeviceMemory>;
+using DeviceCube = Kokkos::View<real_t***, Kokkos::LayoutRight, DeviceMemory>;
+using DeviceQuad = Kokkos::View<real_t****, Kokkos::LayoutRight, DeviceMemory>;
 
 // A View of rank 1-3 filled from row-major doubles, converted to the View's value type.
 template <class View>

@@ -43,17 +43,20 @@ HyperReduction hyper_reduction_from_motion(const Scene& scene, const RomSettings
 // Advances the batch from (xhat0, xhatdot0) (rollouts x r, row-major) through the scene's output times on manifold,
 // filling result's times, latent trajectories, outcomes and step timing.
 template <class Manifold>
-void step_batch(const Manifold& manifold, int latent_dim, const ReferencePoints& model, const Scene& scene, const std::vector<rom::RolloutLoads>& host_loads,
+void step_batch(const Manifold& manifold, int latent_dim, const ReferencePoints& model, const Scene& scene,
+                const std::vector<rom::RolloutLoads>& host_loads,
                 const std::vector<double>& xhat0, const std::vector<double>& xhatdot0, const RomSettings& settings,
                 const HyperReduction& h, RomResult& result, const std::function<void(const RomProgress&)>& progress) {
   using ExecutionSpace = Kokkos::DefaultExecutionSpace;
   using MemorySpace = ExecutionSpace::memory_space;
-  using Vector = Kokkos::View<real_t*, MemorySpace>;
-  using Matrix = Kokkos::View<real_t**, Kokkos::LayoutRight, MemorySpace>;
-  using Cube = Kokkos::View<real_t***, Kokkos::LayoutRight, MemorySpace>;
-  using Quad = Kokkos::View<real_t****, Kokkos::LayoutRight, MemorySpace>;
+  using Vector = DeviceVector;
+  using Matrix = DeviceMatrix;
+  using Cube = DeviceCube;
+  using Quad = DeviceQuad;
   using Clock = std::chrono::steady_clock;
-  const auto seconds_since = [](Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); };
+  const auto seconds_since = [](Clock::time_point t) {
+    return std::chrono::duration<double>(Clock::now() - t).count();
+  };
   const ExecutionSpace space;
   const int B = int(host_loads.size()), r = latent_dim;
   const int S = int(h.samples.size()), I = int(h.nodes.size());
