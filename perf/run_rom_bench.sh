@@ -3,7 +3,9 @@
 # points and SAMPLES samples), each holding the FOM's step time on the same scene from the same build, and the ratio.
 # The ROM figures come from `mpmrom rollout --json` (a batch of BATCH rollouts of the scene's first design run);
 # the FOM's from `mpmrom bench fom`.
-# Usage: perf/run_rom_bench.sh BUILD_DIR MODEL SCENE [SAMPLES] [BATCH]
+# Usage: perf/run_rom_bench.sh BUILD_DIR MODEL SCENE [SAMPLES] [BATCH] [END_TIME]
+# END_TIME (s) shortens the rollouts (default: the scene's end time); CONFIGS="point:0 point:15 node:0 node:15"
+# (method:samples, 0 = all points) picks the configurations, e.g. to leave out all-point rollouts on 10^6 points.
 set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 build=${1:?usage: run_rom_bench.sh BUILD_DIR MODEL SCENE [SAMPLES] [BATCH]}
@@ -11,6 +13,8 @@ model=${2:?model file}
 scene=${3:?scene file}
 samples=${4:-15}
 batch=${5:-1}
+end_time=${6:-0}
+configs=${CONFIGS:-"point:0 point:$samples node:0 node:$samples"}
 export OMP_PROC_BIND=${OMP_PROC_BIND:-false}
 mpmrom="$build/apps/mpmrom"
 work=$(mktemp -d)
@@ -21,19 +25,22 @@ python3 - "$scene" "$batch" "$work/params.csv" <<'PY'
 import sys, tomllib, itertools
 scene, batch, out = sys.argv[1], int(sys.argv[2]), sys.argv[3]
 design = tomllib.load(open(scene, "rb"))["design"]
-names = sorted(k for k in design if k not in ("kind", "test", "runs"))
-first = [design[n][0] for n in names]
+if design["kind"] == "list":
+    names, first = design["names"], design["runs"][0]
+else:
+    names = [k for k in design if k not in ("kind", "test")]
+    first = [design[n][0] for n in names]
 with open(out, "w") as f:
     f.write(",".join(names) + "\n")
     for _ in range(batch):
         f.write(",".join(str(v) for v in first) + "\n")
 PY
-for method in point node; do
-  for n in 0 "$samples"; do
-    rom=$("$mpmrom" -q rollout "$model" "$scene" --out "$work/rom.h5" --method "$method" --samples "$n" \
-          --selection region --params "$work/params.csv" --json)
-    name=$(basename "$scene" .toml)
-    record=$(python3 - "$fom" "$rom" <<'PY'
+for config in $configs; do
+  method=${config%%:*} n=${config##*:}
+  rom=$("$mpmrom" -q rollout "$model" "$scene" --out "$work/rom.h5" --method "$method" --samples "$n" \
+        --selection region --params "$work/params.csv" --end-time "$end_time" --json)
+  name=$(basename "$scene" .toml)
+  record=$(python3 - "$fom" "$rom" <<'PY'
 import json, sys
 fom, rom = json.loads(sys.argv[1]), json.loads(sys.argv[2])
 rom["fom_step_seconds"] = fom["fom_step_seconds"]
@@ -43,8 +50,7 @@ rom["rom_over_fom_step_time"] = rom["rom_seconds_per_rollout_step"] / fom["fom_s
 print(json.dumps(rom))
 PY
 )
-    out="$here/perf/results/rom_${name}_${method}_samples${n}_$(echo "$rom" | sed -n 's/.*"backend":"\([^"]*\)".*/\1/p' | tr A-Z a-z)_$(echo "$rom" | sed -n 's/.*"precision":"\([^"]*\)".*/\1/p').json"
-    echo "$record" > "$out"
-    echo "$out: $(echo "$record" | python3 -c 'import json,sys; d=json.load(sys.stdin); print("ROM %.3g s per rollout-step, FOM %.3g s per step, ratio %.3g" % (d["rom_seconds_per_rollout_step"], d["fom_step_seconds"], d["rom_over_fom_step_time"]))')" >&2
-  done
+  out="$here/perf/results/rom_${name}_${method}_samples${n}_$(echo "$rom" | sed -n 's/.*"backend":"\([^"]*\)".*/\1/p' | tr A-Z a-z)_$(echo "$rom" | sed -n 's/.*"precision":"\([^"]*\)".*/\1/p').json"
+  echo "$record" > "$out"
+  echo "$out: $(echo "$record" | python3 -c 'import json,sys; d=json.load(sys.stdin); print("ROM %.3g s per rollout-step, FOM %.3g s per step, ratio %.3g" % (d["rom_seconds_per_rollout_step"], d["fom_step_seconds"], d["rom_over_fom_step_time"]))')" >&2
 done

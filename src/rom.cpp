@@ -295,7 +295,8 @@ nlohmann::json RomSettings::to_json() const {
           {"newton_iterations", newton_iterations},
           {"projection_iterations", projection_iterations},
           {"max_condition", max_condition},
-          {"regularization", regularization}};
+          {"regularization", regularization},
+          {"end_time", end_time}};
 }
 
 void RomSettings::validate() const {
@@ -309,6 +310,7 @@ void RomSettings::validate() const {
   if (newton_iterations < 1) throw std::invalid_argument("--newton-iterations must be >= 1");
   if (max_condition < 0 || regularization < 0)
     throw std::invalid_argument("--max-condition and --regularization must be >= 0");
+  if (!(end_time >= 0) || !std::isfinite(end_time)) throw std::invalid_argument("--end-time must be >= 0 (0: the scene's)");
 }
 
 nlohmann::json HyperReduction::summary() const {
@@ -669,6 +671,11 @@ RomResult run_rollouts(const Model& model, const std::string& scene_path, const 
     loads.push_back(impl::loads_for_scene(scene, {model.X, model.mass, model.volume}));
     xhat0.insert(xhat0.end(), first_xhat.begin(), first_xhat.end());
     xhatdot0.insert(xhatdot0.end(), first_xhatdot.begin(), first_xhatdot.end());
+  }
+  if (settings.end_time > 0) {
+    const double interval = first.end_time / first.num_outputs;
+    first.num_outputs = int(std::max(1.0, std::round(settings.end_time / interval)));
+    first.end_time = settings.end_time;
   }
   result.setup_seconds = seconds_since(start);
   const Vector params = upload<Vector>("mpmrom::rom::params", model.weights, model.layout().num_params);

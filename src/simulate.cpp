@@ -1,6 +1,8 @@
 #include "simulate.hpp"
 
 #include <chrono>
+#include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <sstream>
 #include <stdexcept>
@@ -9,6 +11,20 @@
 #include "snapshot.hpp"
 
 namespace mpmrom {
+namespace {
+
+// 1.1 rather than 1.1000000000000001: the fewest significant digits that read back as the same double.
+std::string shortest_round_trip(double value) {
+  char text[32];
+  for (int digits = 15; digits < 17; ++digits) {
+    std::snprintf(text, sizeof text, "%.*g", digits, value);
+    if (std::strtod(text, nullptr) == value) return text;
+  }
+  std::snprintf(text, sizeof text, "%.17g", value);
+  return text;
+}
+
+}  // namespace
 
 void simulate(const Scene& scene, const std::string& out_path, P2GStrategy strategy,
               const SimulationCallback& progress) {
@@ -65,11 +81,10 @@ void sweep(const std::string& scene_path, const std::string& out_dir, P2GStrateg
     simulate(run_scene, (std::filesystem::path(out_dir) / runs[r].file).string(), strategy, progress);
   }
   std::ostringstream csv;
-  csv.precision(17);
   for (const auto& name : scene.design.names) csv << name << ",";
   csv << "split,file\n";
   for (const auto& run : runs) {
-    for (double v : run.values) csv << v << ",";
+    for (double v : run.values) csv << shortest_round_trip(v) << ",";
     csv << (run.test ? "test" : "train") << "," << run.file << "\n";
   }
   write_file_atomically((std::filesystem::path(out_dir) / "design.csv").string(), csv.str());
