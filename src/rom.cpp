@@ -13,7 +13,6 @@
 #include <sstream>
 #include <stdexcept>
 #include <unordered_map>
-#include <unordered_set>
 
 #include "fom.hpp"
 #include "impl/device_data.hpp"
@@ -149,8 +148,8 @@ std::vector<int> region_samples(const Model& model, const Scene& scene, std::siz
 }
 
 // Greedy, error-driven: repeatedly adds the point whose velocities, projected with the others' onto the tangent
-// space (the ROM's projection step), best reproduce the full-order velocities of every point, over a spread of
-// training snapshots. A tiny ridge keeps the first (under-determined) steps solvable.
+// space (the ROM's projection step), best reproduce the full-order velocities of about 512 points spread over the
+// body, over a spread of training snapshots. A tiny ridge keeps the first (under-determined) steps solvable.
 std::vector<int> greedy_samples(const Model& model, const TrainingData& data, std::size_t count) {
   const int r = model.latent_dim;
   const std::size_t P = model.num_points();
@@ -177,36 +176,39 @@ std::vector<int> greedy_samples(const Model& model, const TrainingData& data, st
   const std::size_t stride = std::max<std::size_t>(1, frames.size() / 24);
   for (std::size_t i = stride / 2; i < frames.size(); i += stride) picked_frames.push_back(frames[i]);
   const std::size_t T = picked_frames.size();
-  // Jacobians of every point at the chosen codes.
+  // Candidates, which are also the points whose projected velocity error is measured: about 512 spread evenly.
+  std::vector<int> subset;
+  for (std::size_t p = 0; p < P; p += std::max<std::size_t>(1, P / 512)) subset.push_back(int(p));
+  const std::size_t S = subset.size();
+  std::vector<double> Xs(S * 3);
+  for (std::size_t s = 0; s < S; ++s) std::copy_n(&model.X[std::size_t(subset[s]) * 3], 3, &Xs[s * 3]);
+  // Jacobians of the subset at the chosen codes.
   std::vector<double> codes;
   for (const auto& f : picked_frames)
     codes.insert(codes.end(), model.codes.begin() + f.code * r, model.codes.begin() + (f.code + 1) * r);
   const nn::MlpLayout layout = model.layout();
   const Vector params = upload<Vector>("mpmrom::rom::params", model.weights, layout.num_params);
   const auto mlp = impl::device_mlp(model, params);
-  Cube g("mpmrom::rom::greedy_g", T, P, 3), no_velocity;
-  Quad F("mpmrom::rom::greedy_F", T, P, 3, 3), J("mpmrom::rom::greedy_J", T, P, 3, r);
-  nn::evaluate_with_jacobians(ExecutionSpace(), mlp,
-                              nn::PointsView<real_t, MemorySpace>(upload<Matrix>("X", model.X, P, 3)),
+  Cube g("mpmrom::rom::greedy_g", T, S, 3), no_velocity;
+  Quad F("mpmrom::rom::greedy_F", T, S, 3, 3), J("mpmrom::rom::greedy_J", T, S, 3, r);
+  nn::evaluate_with_jacobians(ExecutionSpace(), mlp, nn::PointsView<real_t, MemorySpace>(upload<Matrix>("X", Xs, S, 3)),
                               nn::CodesView<real_t, MemorySpace>(upload<Matrix>("codes", codes, T, r)),
                               nn::CodesView<real_t, MemorySpace>(), g, F, J, no_velocity);
   const std::vector<double> Jh = download(J);
-  std::vector<double> V(T * P * 3);
+  std::vector<double> V(T * S * 3);
   for (std::size_t t = 0; t < T; ++t) {
     const Snapshot& run = data.train.runs[picked_frames[t].run];
-    std::copy_n(run.v.begin() + picked_frames[t].frame * P * 3, P * 3, V.begin() + t * P * 3);
+    for (std::size_t s = 0; s < S; ++s)
+      std::copy_n(run.v.begin() + (picked_frames[t].frame * P + std::size_t(subset[s])) * 3, 3, V.begin() + (t * S + s) * 3);
   }
-  // Error of a sample set: residual of every point's velocity after the projection, over the chosen snapshots.
-  std::vector<int> evaluation;
-  for (std::size_t p = 0; p < P; p += std::max<std::size_t>(1, P / 512)) evaluation.push_back(int(p));
+  // Error of a sample set: residual of the subset's velocities after the projection, over the chosen snapshots.
   std::vector<double> A_base(T * r * r, 0.0), b_base(T * r, 0.0);
   std::vector<int> chosen;
-  std::vector<bool> taken(P, false);
-  const std::size_t candidate_stride = std::max<std::size_t>(1, P / 512);
+  std::vector<bool> taken(S, false);
   for (std::size_t step = 0; step < count; ++step) {
     double best_error = std::numeric_limits<double>::infinity();
     int best = -1;
-    for (std::size_t c = 0; c < P; c += candidate_stride) {
+    for (std::size_t c = 0; c < S; ++c) {
       if (taken[c]) continue;
       double error = 0;
       for (std::size_t t = 0; t < T; ++t) {
@@ -214,9 +216,9 @@ std::vector<int> greedy_samples(const Model& model, const TrainingData& data, st
         std::copy_n(&A_base[t * r * r], r * r, A);
         std::copy_n(&b_base[t * r], r, b);
         for (int k = 0; k < 3; ++k) {
-          const double* row = &Jh[((t * P + c) * 3 + k) * r];
+          const double* row = &Jh[((t * S + c) * 3 + k) * r];
           for (int i = 0; i < r; ++i) {
-            b[i] += row[i] * V[(t * P + c) * 3 + k];
+            b[i] += row[i] * V[(t * S + c) * 3 + k];
             for (int j = 0; j < r; ++j) A[i * r + j] += row[i] * row[j];
           }
         }
@@ -228,12 +230,12 @@ std::vector<int> greedy_samples(const Model& model, const TrainingData& data, st
           break;
         }
         dense::SerialCholeskySolve(A, r, r, b);
-        for (const int p : evaluation)
+        for (std::size_t p = 0; p < S; ++p)
           for (int k = 0; k < 3; ++k) {
-            const double* row = &Jh[((t * P + p) * 3 + k) * r];
+            const double* row = &Jh[((t * S + p) * 3 + k) * r];
             double v = 0;
             for (int i = 0; i < r; ++i) v += row[i] * b[i];
-            const double e = v - V[(t * P + p) * 3 + k];
+            const double e = v - V[(t * S + p) * 3 + k];
             error += e * e;
           }
       }
@@ -243,13 +245,13 @@ std::vector<int> greedy_samples(const Model& model, const TrainingData& data, st
       }
     }
     if (best < 0) break;
-    chosen.push_back(best);
-    taken[best] = true;
+    chosen.push_back(subset[std::size_t(best)]);
+    taken[std::size_t(best)] = true;
     for (std::size_t t = 0; t < T; ++t)
       for (int k = 0; k < 3; ++k) {
-        const double* row = &Jh[((t * P + best) * 3 + k) * r];
+        const double* row = &Jh[((t * S + std::size_t(best)) * 3 + k) * r];
         for (int i = 0; i < r; ++i) {
-          b_base[t * r + i] += row[i] * V[(t * P + best) * 3 + k];
+          b_base[t * r + i] += row[i] * V[(t * S + std::size_t(best)) * 3 + k];
           for (int j = 0; j < r; ++j) A_base[t * r * r + i * r + j] += row[i] * row[j];
         }
       }
@@ -369,8 +371,18 @@ HyperReduction impl::hyper_reduction_from_motion(const Scene& scene, const RomSe
       for_each_node(grid, lo, hi, [&](int node) { node_set.insert(node); });
     }
   h.nodes.assign(node_set.begin(), node_set.end());
-  std::unordered_map<int, int> slot;
-  for (std::size_t n = 0; n < h.nodes.size(); ++n) slot[h.nodes[n]] = int(n);
+  // Dense lookups (a slot per grid node) and I's bounding box: the scan below visits every point at every code.
+  std::vector<int> slot(std::size_t(grid.num_nodes()), -1);
+  int box_lo[3] = {grid.dims[0], grid.dims[1], grid.dims[2]}, box_hi[3] = {-1, -1, -1};
+  for (std::size_t n = 0; n < h.nodes.size(); ++n) {
+    slot[std::size_t(h.nodes[n])] = int(n);
+    int idx[3];
+    grid.indices(h.nodes[n], idx[0], idx[1], idx[2]);
+    for (int d = 0; d < 3; ++d) {
+      box_lo[d] = std::min(box_lo[d], idx[d]);
+      box_hi[d] = std::max(box_hi[d], idx[d]);
+    }
+  }
   std::vector<std::vector<int>> gather(h.nodes.size());
 
   if (settings.method == RomMethod::MaterialPoint) {
@@ -386,10 +398,16 @@ HyperReduction impl::hyper_reduction_from_motion(const Scene& scene, const RomSe
       for (std::size_t c = 0; c < C; ++c) {
         int lo[3], hi[3];
         reach(grid, position(c, p), margin, lo, hi);
+        bool overlaps = true;
+        for (int d = 0; d < 3; ++d) {
+          lo[d] = std::max(lo[d], box_lo[d]);
+          hi[d] = std::min(hi[d], box_hi[d]);
+          overlaps = overlaps && lo[d] <= hi[d];
+        }
+        if (!overlaps) continue;
         for_each_node(grid, lo, hi, [&](int node) {
-          const auto it = slot.find(node);
-          if (it != slot.end() && std::find(reached.begin(), reached.end(), it->second) == reached.end())
-            reached.push_back(it->second);
+          const int n = slot[std::size_t(node)];
+          if (n >= 0 && std::find(reached.begin(), reached.end(), n) == reached.end()) reached.push_back(n);
         });
       }
       if (reached.empty()) continue;
@@ -402,13 +420,13 @@ HyperReduction impl::hyper_reduction_from_motion(const Scene& scene, const RomSe
   } else {
     // Quadrature: Gauss points of the dual cells (the node-centred cells on which the B-splines are polynomial)
     // around every node of I that the training motion brings material near.
-    std::unordered_set<int> occupied;
+    std::vector<char> occupied(std::size_t(grid.num_nodes()), 0);
     for (std::size_t c = 0; c < C; ++c)
       for (std::size_t p = 0; p < P; ++p) {
         int lo[3], hi[3];
         reach(grid, position(c, p), margin, lo, hi);
         // the dual cell holding the point is the middle node of its stencil
-        occupied.insert(grid.index((lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, (lo[2] + hi[2]) / 2));
+        occupied[std::size_t(grid.index((lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, (lo[2] + hi[2]) / 2))] = 1;
       }
     std::set<int> cells;
     for (const int node : h.nodes) {
@@ -427,7 +445,7 @@ HyperReduction impl::hyper_reduction_from_motion(const Scene& scene, const RomSe
                   const int ii = i + e, jj = j + f, kk = k + g;
                   if (ii < 0 || jj < 0 || kk < 0 || ii >= grid.dims[0] || jj >= grid.dims[1] || kk >= grid.dims[2])
                     continue;
-                  near = occupied.count(grid.index(ii, jj, kk)) > 0;
+                  near = occupied[std::size_t(grid.index(ii, jj, kk))] != 0;
                 }
             if (near) cells.insert(grid.index(i, j, k));
           }
