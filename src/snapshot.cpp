@@ -206,7 +206,7 @@ void SnapshotWriter::commit() {
   state_ = State::committed;
 }
 
-Snapshot read_snapshot(const std::string& path) {
+Snapshot read_snapshot(const std::string& path, SnapshotFields fields) {
   std::error_code error;
   if (!std::filesystem::is_regular_file(path, error)) bad(path, "no such snapshot file");
   const hdf5::File file = hdf5::File::open(path);
@@ -263,7 +263,12 @@ Snapshot read_snapshot(const std::string& path) {
   snapshot.x = read_checked(path, file.dataset("x"), {frames, n, 3}, expectation);
   snapshot.v = read_checked(path, file.dataset("v"), {frames, n, 3}, expectation);
   snapshot.F = read_checked(path, file.dataset("F"), {frames, n, 3, 3}, expectation);
-  snapshot.C = read_checked(path, file.dataset("C"), {frames, n, 3, 3}, expectation);
+  if (fields == SnapshotFields::All) {
+    snapshot.C = read_checked(path, file.dataset("C"), {frames, n, 3, 3}, expectation);
+  } else if (const auto shape = file.dataset("C").shape(); shape != std::vector<std::size_t>{frames, n, 3, 3}) {
+    bad(path, "dataset /C has shape " + shape_string(shape) + ", expected " + shape_string({frames, n, 3, 3}) + " " +
+                  expectation);
+  }
   require_positive(path, "/reference/mass", snapshot.mass.data(), n);
   require_positive(path, "/reference/volume", snapshot.volume.data(), n);
   for (std::size_t frame = 1; frame < frames; ++frame) {

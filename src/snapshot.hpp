@@ -76,9 +76,12 @@ struct Snapshot {
   std::vector<double> x, v, F, C;       // (frames, points, 3), (frames, points, 3), (frames, points, 3, 3) twice
 };
 
+// What read_snapshot loads: everything, or all but APIC's C (the 3/8 of a run that training and evaluation never use).
+enum class SnapshotFields { All, WithoutAffine };
+
 // Reads and validates everything: format tag and version, completeness, shapes consistent with the number of points
 // and frames, finite values, positive masses and volumes, increasing times. Throws std::runtime_error with one line
-// naming the file and the problem on any bad file.
-Snapshot read_snapshot(const std::string& path);
+// naming the file and the problem on any bad file. WithoutAffine checks C's shape but leaves Snapshot::C empty.
+Snapshot read_snapshot(const std::string& path, SnapshotFields fields = SnapshotFields::All);
 
 }  // namespace mpmrom

@@ -89,7 +89,7 @@ TrainingData load_training_data(const std::vector<std::string>& inputs,
   for (const auto& [file, test] : files) {
     if (on_file) on_file(file);
     RunSet& set = test ? data.test : data.train;
-    set.runs.push_back(read_snapshot(file));
+    set.runs.push_back(read_snapshot(file, SnapshotFields::WithoutAffine));
     set.files.push_back(file);
     if (first_file.empty()) {
       first_X = set.runs.back().X;
