@@ -354,11 +354,20 @@ std::vector<int> select_samples(const Model& model, const Scene& scene, const Ro
 
 HyperReduction impl::hyper_reduction_from_motion(const Scene& scene, const RomSettings& settings,
                                                  const std::vector<int>& samples,
-                                                 const std::vector<double>& positions, std::size_t P) {
+                                                 const std::vector<double>& positions, std::size_t P,
+                                                 const std::vector<int>& next) {
   const GridGeometry<real_t> grid = grid_for_scene(scene);
   const std::size_t C = positions.size() / (3 * P);
   const double margin = settings.envelope_margin;
   const auto position = [&](std::size_t c, std::size_t p) { return &positions[(c * P + p) * 3]; };
+  // The nodes point p can reach from configuration c until the next one (its path is a straight line between them).
+  const auto reach_from = [&](std::size_t c, std::size_t p, int lo[3], int hi[3]) {
+    reach(grid, position(c, p), margin, lo, hi);
+    if (next.empty() || next[c] < 0) return;
+    int lo2[3], hi2[3];
+    reach(grid, position(std::size_t(next[c]), p), margin, lo2, hi2);
+    for (int d = 0; d < 3; ++d) lo[d] = std::min(lo[d], lo2[d]), hi[d] = std::max(hi[d], hi2[d]);
+  };
   HyperReduction h;
   h.samples = samples;
 
@@ -367,55 +376,67 @@ HyperReduction impl::hyper_reduction_from_motion(const Scene& scene, const RomSe
   for (const int s : samples)
     for (std::size_t c = 0; c < C; ++c) {
       int lo[3], hi[3];
-      reach(grid, position(c, std::size_t(s)), margin, lo, hi);
+      reach_from(c, std::size_t(s), lo, hi);
       for_each_node(grid, lo, hi, [&](int node) { node_set.insert(node); });
     }
   h.nodes.assign(node_set.begin(), node_set.end());
-  // Dense lookups (a slot per grid node) and I's bounding box: the scan below visits every point at every code.
-  std::vector<int> slot(std::size_t(grid.num_nodes()), -1);
-  int box_lo[3] = {grid.dims[0], grid.dims[1], grid.dims[2]}, box_hi[3] = {-1, -1, -1};
-  for (std::size_t n = 0; n < h.nodes.size(); ++n) {
-    slot[std::size_t(h.nodes[n])] = int(n);
-    int idx[3];
-    grid.indices(h.nodes[n], idx[0], idx[1], idx[2]);
-    for (int d = 0; d < 3; ++d) {
-      box_lo[d] = std::min(box_lo[d], idx[d]);
-      box_hi[d] = std::max(box_hi[d], idx[d]);
-    }
-  }
+  std::vector<int> slot(std::size_t(grid.num_nodes()), -1);  // dense: the scans below visit every point at every code
+  for (std::size_t n = 0; n < h.nodes.size(); ++n) slot[std::size_t(h.nodes[n])] = int(n);
   std::vector<std::vector<int>> gather(h.nodes.size());
 
   if (settings.method == RomMethod::MaterialPoint) {
-    // Sources: the samples, then every other point that reaches a node of I at some training code (N).
+    // Sources: the samples, then their co-moving neighbours N: every point that, at some training code, reaches a
+    // node of a sample's stencil at that same code (a point passing through where a sample was at another time
+    // never shares its nodes). Node n gathers from p if p reaches n while n is in a sample's stencil; at run time the
+    // nodes around the samples are then complete, and the other nodes of I, incomplete, are never read by G2P.
+    const std::size_t S = samples.size();
+    struct Box {
+      int lo[3], hi[3];
+    };
+    std::vector<Box> sample_box(C * S), union_box(C);
+    for (std::size_t c = 0; c < C; ++c) {
+      Box& u = union_box[c];
+      for (int d = 0; d < 3; ++d) u.lo[d] = grid.dims[d], u.hi[d] = -1;
+      for (std::size_t k = 0; k < S; ++k) {
+        Box& b = sample_box[c * S + k];
+        reach_from(c, std::size_t(samples[k]), b.lo, b.hi);
+        for (int d = 0; d < 3; ++d) u.lo[d] = std::min(u.lo[d], b.lo[d]), u.hi[d] = std::max(u.hi[d], b.hi[d]);
+      }
+    }
+    const auto intersect = [](const Box& a, const Box& b, Box& out) {
+      for (int d = 0; d < 3; ++d) {
+        out.lo[d] = std::max(a.lo[d], b.lo[d]);
+        out.hi[d] = std::min(a.hi[d], b.hi[d]);
+        if (out.lo[d] > out.hi[d]) return false;
+      }
+      return true;
+    };
     std::vector<int> source_of(P, -1);
-    for (const int s : samples) {
-      source_of[s] = int(h.source_points.size());
-      h.source_points.push_back(s);
+    for (const int k : samples) {
+      source_of[k] = int(h.source_points.size());
+      h.source_points.push_back(k);
     }
     std::vector<int> reached;
     for (std::size_t p = 0; p < P; ++p) {
       reached.clear();
       for (std::size_t c = 0; c < C; ++c) {
-        int lo[3], hi[3];
-        reach(grid, position(c, p), margin, lo, hi);
-        bool overlaps = true;
-        for (int d = 0; d < 3; ++d) {
-          lo[d] = std::max(lo[d], box_lo[d]);
-          hi[d] = std::min(hi[d], box_hi[d]);
-          overlaps = overlaps && lo[d] <= hi[d];
+        Box own, shared;
+        reach_from(c, p, own.lo, own.hi);
+        if (!intersect(own, union_box[c], shared)) continue;
+        for (std::size_t k = 0; k < S; ++k) {
+          if (!intersect(own, sample_box[c * S + k], shared)) continue;
+          for_each_node(grid, shared.lo, shared.hi, [&](int node) {
+            const int n = slot[std::size_t(node)];
+            if (std::find(reached.begin(), reached.end(), n) == reached.end()) reached.push_back(n);
+          });
         }
-        if (!overlaps) continue;
-        for_each_node(grid, lo, hi, [&](int node) {
-          const int n = slot[std::size_t(node)];
-          if (n >= 0 && std::find(reached.begin(), reached.end(), n) == reached.end()) reached.push_back(n);
-        });
       }
       if (reached.empty()) continue;
       if (source_of[p] < 0) {
         source_of[p] = int(h.source_points.size());
         h.source_points.push_back(int(p));
       }
-      for (const int n : reached) gather[n].push_back(source_of[p]);
+      for (const int n : reached) gather[std::size_t(n)].push_back(source_of[p]);
     }
   } else {
     // Quadrature: Gauss points of the dual cells (the node-centred cells on which the B-splines are polynomial)
@@ -497,7 +518,16 @@ HyperReduction impl::hyper_reduction_from_motion(const Scene& scene, const RomSe
 
 HyperReduction build_hyper_reduction(const Model& model, const Scene& scene, const RomSettings& settings,
                                      const std::vector<int>& samples) {
-  return impl::hyper_reduction_from_motion(scene, settings, samples, training_positions(model), model.num_points());
+  // Each training code's successor in time within its run.
+  std::map<std::int64_t, std::vector<int>> run_codes;
+  for (std::size_t c = 0; c < model.num_codes(); ++c) run_codes[model.code_run[c]].push_back(int(c));
+  std::vector<int> next(model.num_codes(), -1);
+  for (auto& [run, codes] : run_codes) {
+    std::sort(codes.begin(), codes.end(), [&](int a, int b) { return model.code_time[a] < model.code_time[b]; });
+    for (std::size_t k = 0; k + 1 < codes.size(); ++k) next[std::size_t(codes[k])] = codes[k + 1];
+  }
+  return impl::hyper_reduction_from_motion(scene, settings, samples, training_positions(model), model.num_points(),
+                                           next);
 }
 
 namespace {

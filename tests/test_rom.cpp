@@ -312,7 +312,10 @@ RomResult affine_rollouts(const Scene& scene, const Motion& run, RomMethod metho
   }
   std::vector<double> motion;
   for (const auto& x : run.positions) motion.insert(motion.end(), x.begin(), x.end());
-  const HyperReduction reduction = impl::hyper_reduction_from_motion(scene, settings, chosen, motion, P);
+  std::vector<int> next(run.positions.size());  // one run: each configuration is followed by the next
+  std::iota(next.begin(), next.end(), 1);
+  next.back() = -1;
+  const HyperReduction reduction = impl::hyper_reduction_from_motion(scene, settings, chosen, motion, P, next);
   const impl::ReferencePoints points{run.X, run.mass, run.volume};
   const AffineManifold manifold{{0, 0, 0}};
   const std::vector<double> rate = affine_rate(scene);

@@ -35,10 +35,11 @@ rom::ReferenceDomain reference_domain(const Scene& scene);
 // One line naming the causes behind fatal rollout flags.
 std::string describe_flags(int flags);
 // Node set, neighbours and quadrature points for the samples, from positions (configurations, P, 3) of the motion
-// the model covers.
+// the model covers. next[c], if given, is the configuration that follows c in time (-1 at a run's end): the sets then
+// cover the straight path between the two, not just the output times.
 HyperReduction hyper_reduction_from_motion(const Scene& scene, const RomSettings& settings,
                                            const std::vector<int>& samples, const std::vector<double>& positions,
-                                           std::size_t P);
+                                           std::size_t P, const std::vector<int>& next = {});
 
 // Advances the batch from (xhat0, xhatdot0) (rollouts x r, row-major) through the scene's output times on manifold,
 // filling result's times, latent trajectories, outcomes and step timing.
