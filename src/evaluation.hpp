@@ -14,7 +14,8 @@
 
 namespace mpmrom {
 
-// Errors of one rollout (latent states xhat, xhatdot: (frames, r)) against one reference run with the same times.
+// Errors of one rollout (latent states xhat, xhatdot: (frames, r)) against the first frames of one reference run
+// (the same output times; a rollout may be shorter than its reference).
 ErrorAccumulator rollout_errors(const Model& model, const Snapshot& reference, const std::vector<double>& xhat,
                                 const std::vector<double>& xhatdot);
 
