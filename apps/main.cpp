@@ -228,7 +228,7 @@ int main(int argc, char** argv) {
   rollout->add_option("--cfl", rom_settings.cfl, "Time step as a fraction of the CFL limit (0: the scene's)")
       ->capture_default_str();
   rollout->add_option("--end-time", rom_settings.end_time,
-                      "Horizon (s), outputs at about the scene's interval (0: the scene's end time)")
+                      "Horizon (s), rounded to whole output intervals of the scene (0: the scene's end time)")
       ->capture_default_str();
   rollout->add_option("--margin", rom_settings.envelope_margin, "Cells of slack around the training motion")
       ->capture_default_str();

@@ -723,7 +723,7 @@ RomResult run_rollouts(const Model& model, const std::string& scene_path, const 
   if (settings.end_time > 0) {
     const double interval = first.end_time / first.num_outputs;
     first.num_outputs = int(std::max(1.0, std::round(settings.end_time / interval)));
-    first.end_time = settings.end_time;
+    first.end_time = first.num_outputs * interval;  // a whole number of the scene's output intervals
   }
   result.setup_seconds = seconds_since(start);
   const Vector params = upload<Vector>("mpmrom::rom::params", model.weights, model.layout().num_params);

@@ -39,7 +39,7 @@ struct RomSettings {
   int projection_iterations = 2;
   double max_condition = 0;        // regularise the normal equations above this estimate (0: 0.01 / epsilon)
   double regularization = 0;       // mu = regularization * trace / r (0: 100 epsilon)
-  // Horizon (s); outputs keep about the scene's output interval (0: the scene's end time).
+  // Horizon (s), rounded to a whole number of the scene's output intervals (0: the scene's end time).
   double end_time = 0;
 
   nlohmann::json to_json() const;
