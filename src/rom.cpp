@@ -352,6 +352,12 @@ std::vector<int> select_samples(const Model& model, const Scene& scene, const Ro
   return {};
 }
 
+void impl::apply_horizon(Scene& scene, double end_time) {
+  const double interval = scene.end_time / scene.num_outputs;
+  scene.num_outputs = int(std::max(1.0, std::round(end_time / interval)));
+  scene.end_time = scene.num_outputs * interval;  // a whole number of the scene's output intervals
+}
+
 HyperReduction impl::hyper_reduction_from_motion(const Scene& scene, const RomSettings& settings,
                                                  const std::vector<int>& samples,
                                                  const std::vector<double>& positions, std::size_t P,
@@ -720,11 +726,7 @@ RomResult run_rollouts(const Model& model, const std::string& scene_path, const 
     xhat0.insert(xhat0.end(), first_xhat.begin(), first_xhat.end());
     xhatdot0.insert(xhatdot0.end(), first_xhatdot.begin(), first_xhatdot.end());
   }
-  if (settings.end_time > 0) {
-    const double interval = first.end_time / first.num_outputs;
-    first.num_outputs = int(std::max(1.0, std::round(settings.end_time / interval)));
-    first.end_time = first.num_outputs * interval;  // a whole number of the scene's output intervals
-  }
+  if (settings.end_time > 0) impl::apply_horizon(first, settings.end_time);
   result.setup_seconds = seconds_since(start);
   const Vector params = upload<Vector>("mpmrom::rom::params", model.weights, model.layout().num_params);
   nn::dispatch_max_width(model.layout().widest, [&](auto width) {

@@ -416,5 +416,26 @@ TEST(RomBatch, IdenticalRolloutsGiveIdenticalResults) {
   }
 }
 
+// --end-time: a shorter horizon keeps the scene's output times, and its rollout is the longer one's first frames.
+TEST(RomHorizon, ShorterHorizonIsAPrefixOfTheFullRollout) {
+  const Scene scene = affine_scene({0, 0, -9.81}, {0.5, -1.0, 1.5});
+  const Motion run = full_order_motion(scene);
+  Scene shorter = scene;
+  const double interval = scene.end_time / scene.num_outputs;
+  impl::apply_horizon(shorter, 1.6 * interval);  // rounds to 2 intervals
+  ASSERT_EQ(shorter.num_outputs, 2);
+  for (const RomMethod method : {RomMethod::MaterialPoint, RomMethod::SampleNode}) {
+    const RomResult full = affine_rollouts(scene, run, method, 16, 1);
+    const RomResult part = affine_rollouts(shorter, run, method, 16, 1);
+    ASSERT_EQ(part.times.size(), 3u);
+    for (std::size_t f = 0; f < part.times.size(); ++f)
+      EXPECT_NEAR(part.times[f], full.times[f], 1e-12 * scene.end_time) << "frame " << f;
+    for (std::size_t i = 0; i < part.xhat.size(); ++i) {
+      ASSERT_EQ(part.xhat[i], full.xhat[i]) << to_string(method) << " entry " << i;
+      ASSERT_EQ(part.xhatdot[i], full.xhatdot[i]) << to_string(method) << " entry " << i;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace mpmrom::test

@@ -34,6 +34,9 @@ rom::RolloutLoads loads_for_scene(const Scene& scene, const ReferencePoints& poi
 rom::ReferenceDomain reference_domain(const Scene& scene);
 // One line naming the causes behind fatal rollout flags.
 std::string describe_flags(int flags);
+// Sets the scene's horizon to end_time rounded to whole output intervals, keeping the interval (--end-time).
+void apply_horizon(Scene& scene, double end_time);
+
 // Node set, neighbours and quadrature points for the samples, from positions (configurations, P, 3) of the motion
 // the model covers. next[c], if given, is the configuration that follows c in time (-1 at a run's end): the sets then
 // cover the straight path between the two, not just the output times.
