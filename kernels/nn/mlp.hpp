@@ -122,6 +122,29 @@ KOKKOS_INLINE_FUNCTION void SerialMlpForward(const Mlp<T, MemorySpace>& mlp, con
   for (int k = 0; k < 3; ++k) g[k] = X[k] + s.output_mean[k] + s.output_scale[k] * h[k];
 }
 
+// Reverse sweep for output k over the ELU slopes of a forward pass: dy_k/dz, z the standardised input. Uses the two
+// MaxWidth buffers and returns the one holding the result. Parallelism contract: one thread, no team, no scratch.
+template <int MaxWidth, class T, class MemorySpace>
+KOKKOS_INLINE_FUNCTION T* SerialMlpOutputAdjoint(const Mlp<T, MemorySpace>& mlp, const T (*slope)[MaxWidth], int k,
+                                                 T* adjoint, T* spare) {
+  const MlpLayout& layout = mlp.layout;
+  const int L = layout.num_layers;
+  // adjoint of layer L-1's input for the output y_k: row k of W_{L-1}
+  for (int j = 0; j < layout.dims[L - 1]; ++j) adjoint[j] = mlp.weight(L - 1, k, j);
+  for (int l = L - 2; l >= 0; --l) {
+    for (int i = 0; i < layout.dims[l + 1]; ++i) adjoint[i] *= slope[l][i];
+    for (int j = 0; j < layout.dims[l]; ++j) spare[j] = T(0);
+    for (int i = 0; i < layout.dims[l + 1]; ++i) {
+      const T a = adjoint[i];
+      for (int j = 0; j < layout.dims[l]; ++j) spare[j] += mlp.weight(l, i, j) * a;
+    }
+    T* tmp = adjoint;
+    adjoint = spare;
+    spare = tmp;
+  }
+  return adjoint;
+}
+
 // g(X; xhat), F = dg/dX (3x3, F[i][j] = dg_i/dX_j) and dg/dxhat (3 x r, row-major at dgdxhat) for one pair. The
 // Jacobian comes from three reverse sweeps (one per output) over the stored ELU slopes: 4 matrix-vector products
 // in all, against 4 + r for forward tangents. Parallelism contract: one thread, no team, no scratch;
@@ -155,22 +178,10 @@ KOKKOS_INLINE_FUNCTION void SerialMlpForwardJacobian(const Mlp<T, MemorySpace>& 
   for (int k = 0; k < 3; ++k) g[k] = X[k] + s.output_mean[k] + s.output_scale[k] * h[k];
 
   for (int k = 0; k < 3; ++k) {
-    // adjoint of layer L-1's input for the output y_k: row k of W_{L-1}
-    for (int j = 0; j < layout.dims[L - 1]; ++j) h[j] = mlp.weight(L - 1, k, j);
-    for (int l = L - 2; l >= 0; --l) {
-      for (int i = 0; i < layout.dims[l + 1]; ++i) h[i] *= slope[l][i];
-      for (int j = 0; j < layout.dims[l]; ++j) next[j] = T(0);
-      for (int i = 0; i < layout.dims[l + 1]; ++i) {
-        const T a = h[i];
-        for (int j = 0; j < layout.dims[l]; ++j) next[j] += mlp.weight(l, i, j) * a;
-      }
-      T* tmp = h;
-      h = next;
-      next = tmp;
-    }
-    // h = dy_k / dz; undo the standardisation
-    for (int d = 0; d < 3; ++d) F[k][d] = (k == d ? T(1) : T(0)) + s.output_scale[k] * h[d] / s.input_scale[d];
-    for (int q = 0; q < layout.latent_dim; ++q) dgdxhat[k * layout.latent_dim + q] = s.output_scale[k] * h[3 + q];
+    const T* dydz = SerialMlpOutputAdjoint<MaxWidth>(mlp, slope, k, h, next);
+    // undo the standardisation
+    for (int d = 0; d < 3; ++d) F[k][d] = (k == d ? T(1) : T(0)) + s.output_scale[k] * dydz[d] / s.input_scale[d];
+    for (int q = 0; q < layout.latent_dim; ++q) dgdxhat[k * layout.latent_dim + q] = s.output_scale[k] * dydz[3 + q];
   }
 }
 

@@ -85,22 +85,9 @@ KOKKOS_INLINE_FUNCTION void SerialMlpKinematics(const Mlp<T, MemorySpace>& mlp, 
   }
   if (dgdxhat == nullptr) return;
 
-  T* adjoint = buffer[0][0];
-  T* spare = buffer[1][0];
   for (int k = 0; k < 3; ++k) {
-    for (int j = 0; j < layout.dims[L - 1]; ++j) adjoint[j] = mlp.weight(L - 1, k, j);
-    for (int l = L - 2; l >= 0; --l) {
-      for (int i = 0; i < layout.dims[l + 1]; ++i) adjoint[i] *= slope[l][i];
-      for (int j = 0; j < layout.dims[l]; ++j) spare[j] = T(0);
-      for (int i = 0; i < layout.dims[l + 1]; ++i) {
-        const T a = adjoint[i];
-        for (int j = 0; j < layout.dims[l]; ++j) spare[j] += mlp.weight(l, i, j) * a;
-      }
-      T* tmp = adjoint;
-      adjoint = spare;
-      spare = tmp;
-    }
-    for (int q = 0; q < r; ++q) dgdxhat[k * r + q] = s.output_scale[k] * adjoint[3 + q];
+    const T* dydz = SerialMlpOutputAdjoint<MaxWidth>(mlp, slope, k, buffer[0][0], buffer[1][0]);
+    for (int q = 0; q < r; ++q) dgdxhat[k * r + q] = s.output_scale[k] * dydz[3 + q];
   }
 }
 
