@@ -1,5 +1,6 @@
 #include "evaluation.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -22,7 +23,95 @@ bool same_parameters(const std::vector<std::string>& names, const std::vector<do
   return true;
 }
 
+// For each query point, the index of the nearest of the points (both (n, 3)), by a uniform bin search.
+std::vector<std::size_t> nearest_points(const std::vector<double>& points, const std::vector<double>& queries) {
+  const std::size_t n = points.size() / 3;
+  double lo[3], hi[3];
+  for (int d = 0; d < 3; ++d) lo[d] = hi[d] = points[d];
+  for (std::size_t p = 0; p < n; ++p)
+    for (int d = 0; d < 3; ++d) {
+      lo[d] = std::min(lo[d], points[3 * p + d]);
+      hi[d] = std::max(hi[d], points[3 * p + d]);
+    }
+  // about one point per bin
+  double volume = 1;
+  for (int d = 0; d < 3; ++d) volume *= std::max(hi[d] - lo[d], 1e-12);
+  const double h = std::max(std::cbrt(volume / double(n)), 1e-12);
+  long bins[3];
+  for (int d = 0; d < 3; ++d) bins[d] = std::max(1L, long(std::ceil((hi[d] - lo[d]) / h)));
+  const auto bin_of = [&](const double* x, int d) {
+    return std::clamp(long(std::floor((x[d] - lo[d]) / h)), 0L, bins[d] - 1);
+  };
+  std::vector<std::size_t> start(std::size_t(bins[0] * bins[1] * bins[2]) + 1, 0), order(n);
+  const auto flat = [&](long i, long j, long k) { return std::size_t((i * bins[1] + j) * bins[2] + k); };
+  for (std::size_t p = 0; p < n; ++p)
+    ++start[flat(bin_of(&points[3 * p], 0), bin_of(&points[3 * p], 1), bin_of(&points[3 * p], 2)) + 1];
+  for (std::size_t b = 1; b < start.size(); ++b) start[b] += start[b - 1];
+  std::vector<std::size_t> fill(start.begin(), start.end() - 1);
+  for (std::size_t p = 0; p < n; ++p)
+    order[fill[flat(bin_of(&points[3 * p], 0), bin_of(&points[3 * p], 1), bin_of(&points[3 * p], 2))]++] = p;
+
+  std::vector<std::size_t> nearest(queries.size() / 3);
+  for (std::size_t q = 0; q < nearest.size(); ++q) {
+    const double* x = &queries[3 * q];
+    const long c[3] = {bin_of(x, 0), bin_of(x, 1), bin_of(x, 2)};
+    double best = INFINITY;
+    // grow a shell of bins until no unsearched bin can hold a closer point
+    for (long ring = 0; ring <= std::max({bins[0], bins[1], bins[2]}); ++ring) {
+      if (std::isfinite(best) && (ring - 1) * h > std::sqrt(best)) break;
+      for (long i = c[0] - ring; i <= c[0] + ring; ++i)
+        for (long j = c[1] - ring; j <= c[1] + ring; ++j)
+          for (long k = c[2] - ring; k <= c[2] + ring; ++k) {
+            if (std::max({std::labs(i - c[0]), std::labs(j - c[1]), std::labs(k - c[2])}) != ring) continue;
+            if (i < 0 || j < 0 || k < 0 || i >= bins[0] || j >= bins[1] || k >= bins[2]) continue;
+            const std::size_t b = flat(i, j, k);
+            for (std::size_t s = start[b]; s < start[b + 1]; ++s) {
+              const double* y = &points[3 * order[s]];
+              const double d2 = (x[0] - y[0]) * (x[0] - y[0]) + (x[1] - y[1]) * (x[1] - y[1]) +
+                                (x[2] - y[2]) * (x[2] - y[2]);
+              if (d2 < best) {
+                best = d2;
+                nearest[q] = order[s];
+              }
+            }
+          }
+    }
+  }
+  return nearest;
+}
+
 }  // namespace
+
+ErrorAccumulator resolution_errors(const Snapshot& reference, const Snapshot& run) {
+  if (run.num_frames != reference.num_frames)
+    throw std::runtime_error("the run has " + std::to_string(run.num_frames) + " output times, its reference " +
+                             std::to_string(reference.num_frames));
+  for (std::size_t f = 0; f < run.num_frames; ++f)
+    if (std::fabs(run.time[f] - reference.time[f]) > 1e-9 * std::max(1.0, std::fabs(reference.time[f])))
+      throw std::runtime_error("output time " + std::to_string(f) + " differs from the reference's");
+  if (run.C.size() != run.F.size()) throw std::invalid_argument("resolution_errors needs the run's C (APIC)");
+  const std::size_t P = reference.num_points, Q = run.num_points;
+  const auto nearest = nearest_points(run.X, reference.X);
+  double centroid[3] = {0, 0, 0};
+  for (std::size_t p = 0; p < P; ++p)
+    for (int d = 0; d < 3; ++d) centroid[d] += reference.X[3 * p + d] / double(P);
+  ErrorAccumulator errors;
+  for (std::size_t f = 0; f < reference.num_frames; ++f)
+    for (std::size_t p = 0; p < P; ++p) {
+      const std::size_t q = nearest[p], i = f * P + p, j = f * Q + q;
+      const double* F = &run.F[9 * j];
+      const double* C = &run.C[9 * j];
+      double dX[3], dx[3], x[3], v[3];
+      for (int d = 0; d < 3; ++d) dX[d] = reference.X[3 * p + d] - run.X[3 * q + d];
+      for (int a = 0; a < 3; ++a) dx[a] = F[3 * a] * dX[0] + F[3 * a + 1] * dX[1] + F[3 * a + 2] * dX[2];
+      for (int a = 0; a < 3; ++a) {
+        x[a] = run.x[3 * j + a] + dx[a];
+        v[a] = run.v[3 * j + a] + C[3 * a] * dx[0] + C[3 * a + 1] * dx[1] + C[3 * a + 2] * dx[2];
+      }
+      errors.add(centroid, &reference.X[3 * p], &reference.x[3 * i], x, &reference.v[3 * i], v, &reference.F[9 * i], F);
+    }
+  return errors;
+}
 
 ErrorAccumulator rollout_errors(const Model& model, const Snapshot& reference, const std::vector<double>& xhat,
                                 const std::vector<double>& xhatdot) {

@@ -19,6 +19,12 @@ namespace mpmrom {
 ErrorAccumulator rollout_errors(const Model& model, const Snapshot& reference, const std::vector<double>& xhat,
                                 const std::vector<double>& xhatdot);
 
+// Errors of a full-order run against a reference run of the same scene and parameters at another resolution (other
+// material points, the same output times). Each reference point q takes the run's material point p nearest to it in
+// the reference configuration and its first-order expansion there: x = x_p + F_p (X_q - X_p),
+// v = v_p + C_p F_p (X_q - X_p) (C: APIC's velocity gradient), F = F_p; exact for affine motion, O(h^2) otherwise.
+ErrorAccumulator resolution_errors(const Snapshot& reference, const Snapshot& run);
+
 // The whole evaluation as SPEC's JSON: aggregate metrics over all matched rollouts under the metric names, "train"
 // and "test" aggregates, and one entry per rollout under "runs". Throws std::runtime_error when no rollout matches a
 // reference, or a matched reference has other output times or points.

@@ -1,6 +1,11 @@
 #include "scene.hpp"
 
+#include "sampling.hpp"
+
 #include <toml++/toml.h>
+
+#include <cstdio>
+#include <cstdlib>
 
 #include <cmath>
 #include <fstream>
@@ -136,6 +141,18 @@ void set_entry(toml::table& root, const std::string& dotted, const std::string& 
   while (std::getline(path, part, '.')) parts.push_back(part);
   for (std::size_t i = 0; i + 1 < parts.size(); ++i) {
     toml::node* next = table->get(parts[i]);
+    // An array of tables is indexed by number: body.0.spacing is the first [[body]]'s spacing.
+    if (next && next->is_array() && i + 2 < parts.size()) {
+      toml::array& list = *next->as_array();
+      char* end = nullptr;
+      const long index = std::strtol(parts[i + 1].c_str(), &end, 10);
+      if (parts[i + 1].empty() || *end != '\0' || index < 0 || std::size_t(index) >= list.size() ||
+          !list.get(std::size_t(index))->is_table())
+        throw std::runtime_error("--set " + dotted + ": '" + parts[i] + "' has no table number " + parts[i + 1]);
+      table = list.get(std::size_t(index))->as_table();
+      ++i;
+      continue;
+    }
     if (!next) {
       table->insert(parts[i], toml::table{});
       next = table->get(parts[i]);
@@ -185,6 +202,7 @@ Scene parse(const std::string& path, const std::string& text, const std::vector<
   }
   if (run_parameters)
     for (const auto& [k, v] : *run_parameters) parameters[k] = v;
+  bool entries_changed = false;
   for (const auto& o : overrides) {
     const auto eq = o.find('=');
     if (eq == std::string::npos || eq == 0) throw std::runtime_error("--set expects key=value, got '" + o + "'");
@@ -194,7 +212,18 @@ Scene parse(const std::string& path, const std::string& text, const std::vector<
       parameters[key] = parse_override_number(key, value);
     } else {
       set_entry(root, key, value);
+      entries_changed = true;
     }
+  }
+  // Snapshots store the scene text: with entries overridden, store the table as changed so the text reproduces the run.
+  if (entries_changed) {
+    std::ostringstream changed;
+    changed << "# " << path << " with --set " << [&] {
+      std::string list;
+      for (const auto& o : overrides) list += (list.empty() ? "" : " ") + o;
+      return list;
+    }() << "\n" << root << "\n";
+    scene.source_text = changed.str();
   }
   scene.parameters = parameters;
 
@@ -465,6 +494,28 @@ Scene load_scene(const std::string& path, const std::vector<std::string>& overri
 
 Scene parse_scene(const std::string& text, const std::string& label, const std::vector<std::string>& overrides) {
   return parse(label, text, overrides, nullptr);
+}
+
+Scene refine_scene(const Scene& scene, double factor) {
+  if (!(factor > 0) || !std::isfinite(factor))
+    throw std::runtime_error("scene " + scene.name + ": refinement factor must be positive, not " + std::to_string(factor));
+  const auto number = [](double value) {
+    char text[32];
+    std::snprintf(text, sizeof text, "%.17g", value);
+    return std::string(text);
+  };
+  std::vector<std::string> overrides{"grid.dx=" + number(scene.dx / factor)};
+  for (std::size_t i = 0; i < scene.bodies.size(); ++i) {
+    const BodySpec& body = scene.bodies[i];
+    if (body.sampling == SamplingKind::Explicit)
+      throw std::runtime_error("scene " + scene.name + ": body '" + body.name +
+                               "' is given by explicit points and cannot be refined");
+    const double spacing = body.count > 0 ? lattice_spacing_for_count(body, body.count) : body.spacing;
+    const std::string entry = "body." + std::to_string(i) + ".";
+    overrides.push_back(entry + "spacing=" + number(spacing / factor));
+    overrides.push_back(entry + "count=0");  // 0: the spacing decides
+  }
+  return parse(scene.source_path, scene.source_text, overrides, &scene.parameters);
 }
 
 Scene scene_for_run(const std::string& path, const std::vector<std::string>& names, const std::vector<double>& values) {

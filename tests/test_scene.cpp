@@ -2,6 +2,7 @@
 #include <stdexcept>
 
 #include "backends.hpp"
+#include "sampling.hpp"
 #include "scene.hpp"
 
 namespace mpmrom::test {
@@ -64,6 +65,41 @@ TEST(Scene, ParametersOverridesAndDesign) {
   const Scene changed = parse_scene(kValid, "scene.toml", {"force=3.5", "material.density=500"});
   EXPECT_NEAR(changed.forces[0].force[1], 3.5, 1e-15);
   EXPECT_EQ(changed.material.density, 500.0);
+}
+
+TEST(Scene, OverriddenEntriesAreStoredInTheSceneText) {
+  const Scene changed = parse_scene(kValid, "scene.toml", {"body.0.spacing=0.04", "grid.dx=0.08"});
+  EXPECT_EQ(changed.bodies[0].spacing, 0.04);
+  EXPECT_EQ(changed.dx, 0.08);
+  // the stored text alone reproduces the changed scene (snapshots keep only the text)
+  const Scene again = parse_scene(changed.source_text, "stored");
+  EXPECT_EQ(again.bodies[0].spacing, 0.04);
+  EXPECT_EQ(again.dx, 0.08);
+  EXPECT_NE(error_of(kValid, {"body.1.spacing=0.04"}).find("no table number 1"), std::string::npos);
+}
+
+TEST(Scene, RefinementScalesGridAndLattice) {
+  const Scene scene = parse_scene(kValid, "scene.toml", {"force=3"});
+  const Scene fine = refine_scene(scene, 2.0);
+  EXPECT_DOUBLE_EQ(fine.dx, 0.05);
+  EXPECT_DOUBLE_EQ(fine.bodies[0].spacing, 0.025);
+  EXPECT_EQ(fine.parameters.at("force"), 3.0);  // the run's values, not the file's defaults
+  // a box aligned with its lattice: exactly 2^3 times the points, the same total mass
+  const auto coarse_points = sample_scene(scene), fine_points = sample_scene(fine);
+  EXPECT_EQ(fine_points.size(), 8 * coarse_points.size());
+  double coarse_mass = 0, fine_mass = 0;
+  for (double m : coarse_points.mass) coarse_mass += m;
+  for (double m : fine_points.mass) fine_mass += m;
+  EXPECT_NEAR(fine_mass, coarse_mass, 1e-12 * coarse_mass);
+  const Scene again = parse_scene(fine.source_text, "stored", {"force=3"});
+  EXPECT_DOUBLE_EQ(again.dx, fine.dx);
+  EXPECT_DOUBLE_EQ(again.bodies[0].spacing, fine.bodies[0].spacing);
+  // a body given by a count is refined through the spacing that count gives
+  const Scene counted = parse_scene(replace(kValid, "spacing = 0.05", "count = 64"), "scene.toml");
+  const Scene counted_fine = refine_scene(counted, 2.0);
+  EXPECT_EQ(counted_fine.bodies[0].count, 0);
+  EXPECT_EQ(sample_scene(counted_fine).size(), 512u);
+  EXPECT_THROW(refine_scene(scene, 0.0), std::runtime_error);
 }
 
 TEST(Scene, BadInputGivesOneClearLine) {
