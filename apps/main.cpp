@@ -11,6 +11,7 @@
 
 #include "bench.hpp"
 #include "evaluation.hpp"
+#include "pipeline.hpp"
 #include "rom.hpp"
 #include "rom_file.hpp"
 #include "mpmrom_config.hpp"
@@ -199,9 +200,18 @@ int main(int argc, char** argv) {
   train->add_option("--checkpoint-seconds", training.checkpoint_seconds, "Seconds between checkpoints (MODEL.h5.ckpt)")
       ->capture_default_str();
   train->add_flag("--resume", resume, "Continue from MODEL.h5.ckpt, left by a run that was stopped");
+  std::vector<double> target_errors;
+  std::string search_scene;
+  train->add_option("--target-error", target_errors,
+                    "Search r, width and samples for the cheapest ROM whose validation position error meets this "
+                    "(fraction, e.g. 0.01; several: the first decides MODEL.h5); needs --scene")
+      ->check(CLI::PositiveNumber);
+  train->add_option("--scene", search_scene, "Scene file of the sweep, for --target-error's rollouts")
+      ->check(CLI::ExistingFile);
   bool train_json = false;
   train->add_flag("--json", train_json, "Print a benchmark record (device, time, settings, errors) as one JSON object on stdout");
   train->footer("Example: mpmrom train data/poke --out poke_model.h5\n"
+                "         mpmrom train data/poke --out small.h5 --target-error 0.01 --scene scenes/poke_cylinder.toml\n"
                 "Checkpoints go to MODEL.h5.ckpt while training and are removed once MODEL.h5 is written.");
 
   mpmrom::RomSettings rom_settings;
@@ -225,7 +235,7 @@ int main(int argc, char** argv) {
   rollout->add_option("--seed", rom_settings.seed, "Seed of --selection random")->capture_default_str();
   rollout->add_option("--params", params_path, "Parameter file (design.csv form); default: the scene's design")
       ->check(CLI::ExistingFile);
-  rollout->add_option("--cfl", rom_settings.cfl, "Time step as a fraction of the CFL limit (0: the scene's)")
+  rollout->add_option("--cfl", rom_settings.cfl, "Time step as a fraction of the CFL limit, up to 10 (0: the scene's; above 1 the FOM would be unstable)")
       ->capture_default_str();
   rollout->add_option("--end-time", rom_settings.end_time,
                       "Horizon (s), rounded to whole output intervals of the scene (0: the scene's end time)")
@@ -257,6 +267,44 @@ int main(int argc, char** argv) {
   evaluate->add_option("--model", evaluate_model, "Model file (default: the one ROM.h5 names)");
   evaluate->add_flag("--json", evaluate_json, "Print the errors as one JSON object on stdout");
   evaluate->footer("Example: mpmrom evaluate rom.h5 data/poke --json");
+
+  mpmrom::PipelineSettings pipeline_settings;
+  std::vector<std::string> pipeline_networks, pipeline_methods;
+  auto* pipeline = app.add_subcommand(
+      "pipeline", "The whole chain: sweep, FOM resolutions, training, ROM configurations, report with charts");
+  pipeline->add_option("scene", pipeline_settings.scene_path, "Scene file (TOML) with a [design] table")
+      ->required()
+      ->check(CLI::ExistingFile);
+  pipeline->add_option("--out", pipeline_settings.out_dir, "Output directory (report.md, report.json, charts, data)")
+      ->required();
+  pipeline->add_option("--fom-refinements", pipeline_settings.fom_refinements,
+                       "FOM resolutions, as factors on the scene's (grid and particle spacing divided by each)")
+      ->capture_default_str();
+  pipeline->add_option("--fom-cfl", pipeline_settings.fom_cfls, "CFL numbers of the FOM ladder (0: the scene's)")
+      ->capture_default_str();
+  pipeline->add_option("--reference-refinement", pipeline_settings.reference_refinement,
+                       "Resolution factor of the reference FOM that every error is measured against")
+      ->capture_default_str();
+  pipeline->add_option("--networks", pipeline_networks,
+                       "Networks to train, r x width x depth (e.g. 5x48x5 3x16x5); default: train's defaults, or "
+                       "r in {3,5,8} x width in {16,32,48} with --target-error");
+  pipeline->add_option("--epochs", pipeline_settings.training.epochs, "Training epochs per network")
+      ->capture_default_str();
+  pipeline->add_option("--methods", pipeline_methods, "ROM algorithms: point (1), node (2)")->capture_default_str();
+  pipeline->add_option("--samples", pipeline_settings.samples, "Sample counts to try (0: all points)")
+      ->capture_default_str();
+  pipeline->add_option("--rom-cfl", pipeline_settings.rom_cfls, "ROM time steps as CFL numbers (0: the scene's)")
+      ->capture_default_str();
+  pipeline->add_option("--validation-runs", pipeline_settings.validation_runs,
+                       "Training runs held out to choose models (-1: a sixth)")
+      ->capture_default_str();
+  pipeline->add_option("--target-error", pipeline_settings.target_errors,
+                       "Search for the cheapest ROM meeting each validation position error (fractions)")
+      ->check(CLI::PositiveNumber);
+  pipeline->add_option("--batch-sizes", pipeline_settings.batch_sizes, "Batch sizes of the throughput benchmark")
+      ->capture_default_str();
+  pipeline->footer("Example: mpmrom pipeline scenes/poke_cylinder.toml --out out/pipeline\n"
+                   "         mpmrom pipeline scenes/poke_cylinder.toml --out out/search --target-error 0.01 0.003");
 
   long bench_steps = 20, bench_warmup = 3;
   bool bench_json = false;
@@ -310,7 +358,19 @@ int main(int argc, char** argv) {
                     },
                     progress);
     }
-    if (*train) {
+    const auto pipeline_log = [quiet](const std::string& text) {
+      if (!quiet) std::cerr << "mpmrom: " << text << "\n";
+    };
+    if (*train && !target_errors.empty()) {
+      if (search_scene.empty()) throw std::invalid_argument("--target-error needs --scene (the sweep's scene file)");
+      if (train_inputs.size() != 1) throw std::invalid_argument("--target-error takes one sweep directory");
+      mpmrom::PipelineSettings search;
+      search.training = training;
+      search.target_errors = target_errors;
+      const auto decision = mpmrom::search_model(search_scene, train_inputs[0], model_path + ".search", model_path,
+                                                 search, pipeline_log);
+      if (train_json) std::cout << decision.dump() << "\n";
+    } else if (*train) {
       if (!quiet) std::cerr << "mpmrom train: reading " << train_inputs.size() << " input(s)\n";
       const auto data = mpmrom::load_training_data(train_inputs);
       if (!quiet)
@@ -449,6 +509,14 @@ int main(int argc, char** argv) {
         std::cout << record.dump() << "\n";
       }
       if (failed > 0) return 3;
+    }
+    if (*pipeline) {
+      for (const auto& text : pipeline_networks) pipeline_settings.networks.push_back(mpmrom::NetworkShape::parse(text));
+      if (!pipeline_methods.empty()) {
+        pipeline_settings.methods.clear();
+        for (const auto& m : pipeline_methods) pipeline_settings.methods.push_back(mpmrom::rom_method_from_string(m));
+      }
+      mpmrom::run_pipeline(pipeline_settings, pipeline_log);
     }
     if (*evaluate) {
       const mpmrom::RomFile rom = mpmrom::load_rom(rom_path);

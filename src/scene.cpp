@@ -160,12 +160,22 @@ void set_entry(toml::table& root, const std::string& dotted, const std::string& 
     if (!next->is_table()) throw std::runtime_error("--set " + dotted + ": '" + parts[i] + "' is not a table");
     table = next->as_table();
   }
+  // a TOML value (number, array, boolean, quoted string); anything else is taken as a bare string
   char* end = nullptr;
   const double number = std::strtod(text.c_str(), &end);
-  if (end && *end == '\0' && !text.empty())
+  if (end && *end == '\0' && !text.empty()) {
     table->insert_or_assign(parts.back(), number);
-  else
+    return;
+  }
+  try {
+    toml::table value = toml::parse("value = " + text);
+    if (value.get("value")->is_integer())
+      table->insert_or_assign(parts.back(), double(*value.get("value")->value<std::int64_t>()));
+    else
+      table->insert_or_assign(parts.back(), std::move(*value.get("value")));
+  } catch (const toml::parse_error&) {
     table->insert_or_assign(parts.back(), text);
+  }
 }
 
 double parse_override_number(const std::string& key, const std::string& text) {
@@ -504,7 +514,31 @@ Scene refine_scene(const Scene& scene, double factor) {
     std::snprintf(text, sizeof text, "%.17g", value);
     return std::string(text);
   };
-  std::vector<std::string> overrides{"grid.dx=" + number(scene.dx / factor)};
+  if (factor == 1) return override_scene(scene, {});
+  // The refined grid keeps a node where the original has one at the bodies' lower faces (a fixed base stays on a
+  // node) and grows outward to cover the original domain with the 2-cell margin the bodies need.
+  const double dx = scene.dx / factor;
+  std::vector<std::string> overrides{"grid.dx=" + number(dx)};
+  Vec3d lo = scene.domain.lo, hi = scene.domain.hi, body_lo, body_hi;
+  for (int d = 0; d < 3; ++d) {
+    body_lo[d] = INFINITY;
+    body_hi[d] = -INFINITY;
+    for (const auto& b : scene.bodies) {
+      body_lo[d] = std::min(body_lo[d], b.center[d] - b.half_extents[d]);
+      body_hi[d] = std::max(body_hi[d], b.center[d] + b.half_extents[d]);
+    }
+    const double anchor =
+        scene.domain.lo[d] + std::round((body_lo[d] - scene.domain.lo[d]) / scene.dx) * scene.dx;
+    const double below = anchor - std::min(scene.domain.lo[d], body_lo[d] - 2 * dx);
+    const double above = std::max(scene.domain.hi[d], body_hi[d] + 2 * dx) - anchor;
+    lo[d] = anchor - std::ceil(below / dx - 1e-9) * dx;
+    hi[d] = anchor + std::ceil(above / dx - 1e-9) * dx;
+    // one more cell where round-off would put a body a hair inside the margin parse() demands
+    while (body_lo[d] < lo[d] + 2 * dx) lo[d] -= dx;
+    while (body_hi[d] > hi[d] - 2 * dx) hi[d] += dx;
+  }
+  overrides.push_back("grid.lo=[" + number(lo[0]) + "," + number(lo[1]) + "," + number(lo[2]) + "]");
+  overrides.push_back("grid.hi=[" + number(hi[0]) + "," + number(hi[1]) + "," + number(hi[2]) + "]");
   for (std::size_t i = 0; i < scene.bodies.size(); ++i) {
     const BodySpec& body = scene.bodies[i];
     if (body.sampling == SamplingKind::Explicit)
@@ -515,6 +549,10 @@ Scene refine_scene(const Scene& scene, double factor) {
     overrides.push_back(entry + "spacing=" + number(spacing / factor));
     overrides.push_back(entry + "count=0");  // 0: the spacing decides
   }
+  return override_scene(scene, overrides);
+}
+
+Scene override_scene(const Scene& scene, const std::vector<std::string>& overrides) {
   return parse(scene.source_path, scene.source_text, overrides, &scene.parameters);
 }
 

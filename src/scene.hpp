@@ -110,6 +110,9 @@ Scene load_scene(const std::string& path, const std::vector<std::string>& overri
 // The same from text already in memory; `label` names it in error messages.
 Scene parse_scene(const std::string& text, const std::string& label, const std::vector<std::string>& overrides = {});
 
+// The scene with more "key=value" overrides (as load_scene's) applied on top of it, keeping its parameter values.
+Scene override_scene(const Scene& scene, const std::vector<std::string>& overrides);
+
 // The scene at `factor` times its resolution: grid spacing dx / factor and each body's lattice or Poisson-disk spacing
 // divided by factor (about factor^3 as many points), with the same parameter values. Its source_text reproduces it.
 // Throws std::runtime_error for bodies given by explicit points, which have no resolution to change.

@@ -1,5 +1,7 @@
 #include "simulate.hpp"
 
+#include <Kokkos_Core.hpp>
+
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -39,13 +41,17 @@ void simulate(const Scene& scene, const std::string& out_path, P2GStrategy strat
   solver.reference(X, mass, volume);
   SnapshotWriter writer(out_path, header, solver.num_particles(), X.data(), mass.data(), volume.data());
   const int num_frames = scene.num_outputs + 1;
+  double step_seconds = 0;
   for (int k = 0; k < num_frames; ++k) {
+    const auto step_start = std::chrono::steady_clock::now();
     solver.advance_to(scene.end_time * k / scene.num_outputs);
+    Kokkos::fence();
+    step_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - step_start).count();
     const ParticleFrame f = solver.frame();
     writer.append(f.time, f.x.data(), f.v.data(), f.F.data(), f.C.data());
     if (progress) {
       const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-      progress({k + 1, num_frames, solver.time(), solver.steps(), solver.num_particles(), seconds});
+      progress({k + 1, num_frames, solver.time(), solver.steps(), solver.num_particles(), seconds, step_seconds});
     }
   }
   writer.commit();

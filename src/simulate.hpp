@@ -16,6 +16,7 @@ struct SimulationProgress {
   long steps;       // steps taken
   std::size_t num_particles;
   double seconds;   // wall-clock time so far
+  double step_seconds;  // of which advancing the solver (no output): the cost of the simulation itself
 };
 using SimulationCallback = std::function<void(const SimulationProgress&)>;
 

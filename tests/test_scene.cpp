@@ -1,4 +1,5 @@
 // Scene files: parameters and overrides, the design, and one clear error for each kind of bad input.
+#include <cmath>
 #include <stdexcept>
 
 #include "backends.hpp"
@@ -82,6 +83,16 @@ TEST(Scene, RefinementScalesGridAndLattice) {
   const Scene scene = parse_scene(kValid, "scene.toml", {"force=3"});
   const Scene fine = refine_scene(scene, 2.0);
   EXPECT_DOUBLE_EQ(fine.dx, 0.05);
+  // the grid keeps a node at the body's lower faces (-0.1) and covers the original domain
+  for (int d = 0; d < 3; ++d) {
+    EXPECT_LE(fine.domain.lo[d], scene.domain.lo[d]);
+    EXPECT_GE(fine.domain.hi[d], scene.domain.hi[d]);
+    const double cells = (-0.1 - fine.domain.lo[d]) / fine.dx;
+    EXPECT_NEAR(cells, std::round(cells), 1e-9);
+  }
+  // coarsening keeps the 2-cell margin by growing the domain: 0.4-cell grid around a 0.2 box in [-1, 1]
+  const Scene coarse = refine_scene(scene, 0.25);
+  EXPECT_LE(coarse.domain.lo[0], -0.1 - 2 * coarse.dx);
   EXPECT_DOUBLE_EQ(fine.bodies[0].spacing, 0.025);
   EXPECT_EQ(fine.parameters.at("force"), 3.0);  // the run's values, not the file's defaults
   // a box aligned with its lattice: exactly 2^3 times the points, the same total mass

@@ -1,0 +1,102 @@
+// The pipeline's choices that do not need a trained model: which training runs are held out for validation, the
+// Pareto front of cost against error, network names, and the charts' files.
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+
+#include "backends.hpp"
+#include "charts.hpp"
+#include "pipeline.hpp"
+#include "scene.hpp"
+
+namespace mpmrom::test {
+namespace {
+
+const std::string kPokeLikeDesign = R"(
+name = "design"
+[parameters]
+a = 1.0
+b = 1.0
+c = 1.0
+[material]
+youngs_modulus = 1e4
+poisson_ratio = 0.3
+density = 100.0
+[[body]]
+shape = "box"
+center = [0.0, 0.0, 0.0]
+size = [0.2, 0.2, 0.2]
+spacing = 0.05
+[grid]
+lo = [-1.0, -1.0, -1.0]
+hi = [1.0, 1.0, 1.0]
+dx = 0.1
+[time]
+end_time = 0.1
+[design]
+a = [0.0, 1.0, 2.0]
+b = [0.0, 1.0, 2.0]
+c = [0.0, 1.0, 2.0]
+test = [4, 10, 13, 16, 22]
+)";
+
+TEST(PipelineValidation, HoldsOutInteriorTrainingRunsNeverTestRuns) {
+  const Scene scene = parse_scene(kPokeLikeDesign, "design.toml");
+  const auto held_out = validation_runs(scene, -1);
+  // 22 training runs: (22 + 3) / 6 = 4 held out
+  ASSERT_EQ(held_out.size(), 4u);
+  // runs 12 = (1, 1, 0) and 14 = (1, 1, 2) are the only training runs with two interior levels; then two of the 12
+  // runs with one, from the middles of equal shares: positions 3 and 9 of {1, 3, 5, 7, 9, 11, 15, 17, 19, 21, 23, 25}
+  EXPECT_EQ(held_out, (std::vector<std::size_t>{7, 12, 14, 21}));
+  for (std::size_t r : held_out)
+    for (int t : scene.design.test_runs) EXPECT_NE(r, std::size_t(t));
+  EXPECT_EQ(validation_runs(scene, 1), std::vector<std::size_t>{14});  // the middle of {12, 14}
+  EXPECT_THROW(validation_runs(scene, 22), std::runtime_error);  // nothing would be left to train on
+}
+
+TEST(PipelineFront, KeepsOnlyConfigurationsNothingCheaperBeats) {
+  const double inf = std::numeric_limits<double>::infinity();
+  // (cost, error): 0 and 2 are dominated by 1; 4 failed; 3 and 5 trade cost for error
+  const std::vector<double> cost{2.0, 1.0, 3.0, 4.0, 0.5, 8.0};
+  const std::vector<double> error{0.5, 0.4, 0.45, 0.1, inf, 0.05};
+  EXPECT_EQ(pareto_front(cost, error), (std::vector<std::size_t>{1, 3, 5}));
+  EXPECT_TRUE(pareto_front({}, {}).empty());
+}
+
+TEST(PipelineNames, NetworkShapesParseAndName) {
+  const auto shape = NetworkShape::parse("5x48x5");
+  EXPECT_EQ(shape.latent_dim, 5);
+  EXPECT_EQ(shape.width, 48);
+  EXPECT_EQ(shape.depth, 5);
+  EXPECT_EQ(shape.name(), "r5_w48_d5");
+  for (const char* bad : {"5x48", "5x48x1", "0x48x5", "5x48x5x", "five"})
+    EXPECT_THROW(NetworkShape::parse(bad), std::invalid_argument) << bad;
+  EXPECT_EQ((RomConfiguration{RomMethod::SampleNode, 0, 3.0}).name(), "node_s0_cfl3");
+  EXPECT_EQ(default_search_networks(5).size(), 9u);
+}
+
+TEST(PipelineCharts, ScriptAndImagesAreWritten) {
+  const auto dir = std::filesystem::temp_directory_path() / ("mpmrom_chart_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  Chart chart{"title", "cost", "error_%", true, true, {}};
+  chart.series.push_back({"a", {1, 10, 100}, {3, 2, 1}, "linespoints", {"x", "y", "z"}});
+  chart.series.push_back({"b", {0.0, 5}, {1, 1}, "points", {}});  // the zero cost cannot be drawn on a log axis
+  const std::string problem = write_chart(dir.string(), "chart", chart);
+  std::ifstream script(dir / "chart.gp");
+  const std::string text((std::istreambuf_iterator<char>(script)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("10 2 \"y\""), std::string::npos);
+  EXPECT_EQ(text.find("\n0 1 "), std::string::npos);
+  if (problem.empty()) {  // gnuplot is installed (scripts/install-deps.sh): both images exist and are not empty
+    EXPECT_GT(std::filesystem::file_size(dir / "chart.png"), 1000u);
+    EXPECT_GT(std::filesystem::file_size(dir / "chart.svg"), 1000u);
+  } else {
+    EXPECT_NE(problem.find("gnuplot"), std::string::npos) << problem;
+  }
+  for (const auto& entry : std::filesystem::directory_iterator(dir))  // no temporary left behind
+    EXPECT_EQ(entry.path().string().find(".tmp"), std::string::npos) << entry.path();
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace mpmrom::test
