@@ -208,6 +208,9 @@ int main(int argc, char** argv) {
       ->check(CLI::PositiveNumber);
   train->add_option("--scene", search_scene, "Scene file of the sweep, for --target-error's rollouts")
       ->check(CLI::ExistingFile);
+  std::vector<std::string> search_networks;
+  train->add_option("--networks", search_networks,
+                    "--target-error's networks, r x width x depth (default: r in {3,5,8} x width in {16,32,48})");
   bool train_json = false;
   train->add_flag("--json", train_json, "Print a benchmark record (device, time, settings, errors) as one JSON object on stdout");
   train->footer("Example: mpmrom train data/poke --out poke_model.h5\n"
@@ -367,6 +370,7 @@ int main(int argc, char** argv) {
       mpmrom::PipelineSettings search;
       search.training = training;
       search.target_errors = target_errors;
+      for (const auto& text : search_networks) search.networks.push_back(mpmrom::NetworkShape::parse(text));
       const auto decision = mpmrom::search_model(search_scene, train_inputs[0], model_path + ".search", model_path,
                                                  search, pipeline_log);
       if (train_json) std::cout << decision.dump() << "\n";
@@ -516,6 +520,8 @@ int main(int argc, char** argv) {
         pipeline_settings.methods.clear();
         for (const auto& m : pipeline_methods) pipeline_settings.methods.push_back(mpmrom::rom_method_from_string(m));
       }
+      pipeline_settings.command = "mpmrom";
+      for (int a = 1; a < argc; ++a) pipeline_settings.command += std::string(" ") + argv[a];
       mpmrom::run_pipeline(pipeline_settings, pipeline_log);
     }
     if (*evaluate) {

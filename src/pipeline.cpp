@@ -808,7 +808,8 @@ json run_pipeline(const PipelineSettings& settings, const PipelineLog& log) {
   }
 
   json report = benchmark_record("pipeline", scene.name);
-  report["command"] = "mpmrom pipeline " + settings.scene_path + " --out " + settings.out_dir;
+  report["command"] = !settings.command.empty() ? settings.command
+                                                : "mpmrom pipeline " + settings.scene_path + " --out " + settings.out_dir;
   report["particles"] = study.test_runs().runs.front().num_points;
   report["reference_refinement"] = settings.reference_refinement;
   report["runs"] = {{"train", study.training_runs()},

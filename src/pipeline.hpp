@@ -48,6 +48,7 @@ struct PipelineSettings {
   std::vector<double> target_errors;  // position_error targets for the model search (fractions; empty: no search)
   std::vector<int> batch_sizes{1, 4, 16, 64};  // batch throughput of the chosen (or only) configuration
   double batch_end_time = 0;                   // horizon of the batch benchmark (0: 4 output intervals)
+  std::string command;  // the command line, for the report (empty: one is made from the scene and directory)
 };
 
 // The search space of --target-error when no networks are given: r in {3, 5, 8} x width in {16, 32, 48}, the
