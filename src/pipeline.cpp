@@ -822,19 +822,19 @@ json run_pipeline(const PipelineSettings& settings, const PipelineLog& log) {
   report["comparison"] = {{"position_error", compare_fronts(ladder, study.configurations(), "position_error")},
                           {"displacement_error", compare_fronts(ladder, study.configurations(), "displacement_error")}};
 
-  // the batch benchmark runs the first target's choice, else the cheapest configuration within 1 % on validation,
-  // else the most accurate one
+  // the batch benchmark runs the first target's choice; without targets, the cheapest configuration within 1 % on
+  // validation, else the most accurate one
   const json* chosen = !targets.empty() && !targets[0]["chosen"].is_null() ? &targets[0]["chosen"] : nullptr;
-  for (const auto& c : study.configurations()) {
-    if (!targets.empty() || number(c["validation"]["position_error"]) > 0.01) continue;
-    if (!chosen || number(c["cost_seconds_per_simulated_second"]) < number((*chosen)["cost_seconds_per_simulated_second"]))
-      chosen = &c;
+  if (targets.empty()) {
+    const auto validation_error = [](const json& c) { return number(c["validation"]["position_error"]); };
+    for (const auto& c : study.configurations())
+      if (validation_error(c) <= 0.01 && (!chosen || number(c["cost_seconds_per_simulated_second"]) <
+                                                         number((*chosen)["cost_seconds_per_simulated_second"])))
+        chosen = &c;
+    if (!chosen)
+      for (const auto& c : study.configurations())
+        if (!chosen || validation_error(c) < validation_error(*chosen)) chosen = &c;
   }
-  for (const auto& c : study.configurations())
-    if (targets.empty() && (!chosen || number(c["validation"]["position_error"]) <
-                                           number((*chosen)["validation"]["position_error"])) &&
-        !(chosen && number((*chosen)["validation"]["position_error"]) <= 0.01))
-      chosen = &c;
   if (chosen && !settings.batch_sizes.empty()) {
     say("batch throughput of " + (*chosen)["network"].get<std::string>() + " " +
         (*chosen)["configuration"].get<std::string>());
