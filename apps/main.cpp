@@ -252,6 +252,18 @@ int main(int argc, char** argv) {
   rollout->add_option("--projection-iterations", rom_settings.projection_iterations,
                       "Re-projections with dg/dxhat at the trial next state (0: the paper's, at xhat(t_n))")
       ->capture_default_str();
+  rollout->add_option("--max-condition", rom_settings.max_condition,
+                      "Condition estimate of the normal equations above which they are regularised (0: 0.01/epsilon)");
+  rollout->add_flag("!--no-regularize", rom_settings.regularize,
+                    "Stop a rollout at an ill-conditioned projection instead of regularising it");
+  rollout->add_flag("!--no-inversion-fallback", rom_settings.inversion_fallback,
+                    "Algorithm 2: drop a quadrature point whose inversion failed, without retrying");
+  rollout->add_option("--max-failed-inversions", rom_settings.max_failed_inversions,
+                      "Algorithm 2: stop when more than this fraction of the quadrature points fails in a step")
+      ->capture_default_str();
+  rollout->add_option("--energy-growth", rom_settings.energy_growth,
+                      "Stop when |dxhat/dt| exceeds this times the fastest training motion (0: no check)")
+      ->capture_default_str();
   rollout->add_option("--decode", decode_mode,
                       "Decoded fields to store: none, reference (the model's points) or lattice (--decode-spacing)")
       ->capture_default_str();
@@ -481,6 +493,7 @@ int main(int argc, char** argv) {
       int failed = 0;
       for (std::size_t b = 0; b < cases.size(); ++b) {
         const auto& o = result.outcomes[b];
+        if (!o.warning.empty()) std::cerr << "mpmrom rollout: warning: rollout " << b << ": " << o.warning << "\n";
         if (!o.message.empty()) {
           ++failed;
           std::cerr << "mpmrom rollout: rollout " << b << " " << o.message << "\n";
@@ -587,6 +600,9 @@ int main(int argc, char** argv) {
                   << "  precision: " << runtime.precision << "\n";
       }
     }
+  } catch (const mpmrom::SimulationFailure& e) {
+    std::cerr << "mpmrom: the simulation failed (" << to_string(e.cause()) << ") at " << e.what() << "\n";
+    return 3;
   } catch (const std::exception& e) {
     std::cerr << "mpmrom: error: " << e.what() << "\n";
     return 1;

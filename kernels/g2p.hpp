@@ -1,7 +1,9 @@
 // Grid-to-particle transfer and particle update:
 //   v_p = sum_i w_ip v_i,  C_p = (4 / dx^2) sum_i w_ip v_i (x_i - x_p)^T (APIC; zero for PIC),
 //   F_p <- (I + dt sum_i v_i grad w_ip^T) F_p,  x_p <- x_p + dt v_p.
-// Returns the largest particle speed, which sets the next CFL time step. Parallelism: one thread per particle.
+// Returns the largest particle speed, which sets the next CFL time step, and counts in `problems` the particles left
+// in a state the run cannot go on from (the driver reports them; counting costs nothing while none occurs).
+// Parallelism: one thread per particle.
 #pragma once
 
 #include "kernels/bspline.hpp"
@@ -10,9 +12,15 @@
 
 namespace mpmrom {
 
+// problems(problem_not_finite): a NaN or Inf in v, x or det F; problems(problem_inverted): det F <= 0 (inverted).
+enum ParticleProblem : int { problem_not_finite = 0, problem_inverted = 1, num_particle_problems = 2 };
+template <class MemorySpace>
+using ParticleProblemCounts = Kokkos::View<int[num_particle_problems], MemorySpace>;
+
 template <class ExecutionSpace, class MemorySpace>
 real_t g2p(const ExecutionSpace& space, const ParticleViews<MemorySpace>& particles,
-           const GridNodeView<MemorySpace>& nodes, const GridGeometry<real_t>& grid, real_t dt, bool apic) {
+           const GridNodeView<MemorySpace>& nodes, const GridGeometry<real_t>& grid, real_t dt, bool apic,
+           const ParticleProblemCounts<MemorySpace>& problems) {
   real_t max_speed = 0;
   // D_p^{-1} = 4 / dx^2 for quadratic B-splines (Jiang et al. 2015).
   const real_t inverse_inertia = real_t(4) * grid.inv_dx * grid.inv_dx;
@@ -34,10 +42,17 @@ real_t g2p(const ExecutionSpace& space, const ParticleViews<MemorySpace>& partic
               affine += w * outer(vi, s.node_offset(a, b, c, x, grid.origin, grid.dx));
               velocity_gradient += outer(vi, s.gradient(a, b, c));
             }
+        const Mat3<real_t> F = (Mat3<real_t>::identity() + dt * velocity_gradient) * load_mat3(particles.F, p);
+        const Vec3<real_t> x_next = x + dt * v;
+        const real_t J = determinant(F);
+        if (!math::isfinite(v[0] + v[1] + v[2] + x_next[0] + x_next[1] + x_next[2] + J))
+          Kokkos::atomic_add(&problems(problem_not_finite), 1);
+        else if (!(J > real_t(0)))
+          Kokkos::atomic_add(&problems(problem_inverted), 1);
         store_vec3(particles.v, p, v);
         store_mat3(particles.C, p, apic ? inverse_inertia * affine : Mat3<real_t>::zero());
-        store_mat3(particles.F, p, (Mat3<real_t>::identity() + dt * velocity_gradient) * load_mat3(particles.F, p));
-        store_vec3(particles.x, p, x + dt * v);
+        store_mat3(particles.F, p, F);
+        store_vec3(particles.x, p, x_next);
         speed = math::max(speed, norm(v));
       },
       Kokkos::Max<real_t>(max_speed));

@@ -52,12 +52,16 @@ KOKKOS_INLINE_FUNCTION Vec3<real_t> constrained_node_velocity(Vec3<real_t> v, co
   return v;
 }
 
+// Returns the work done on the grid by gravity and the boundary conditions in this step, sum_i m_i (v_i - p_i / m_i).v_i
+// over the updated velocities v_i: zero for resting walls and held nodes (the impulse is normal to, or multiplies, a
+// zero velocity), the input of moving Dirichlet regions and of gravity otherwise (the FOM's energy budget).
 template <class ExecutionSpace, class MemorySpace>
-void grid_update(const ExecutionSpace& space, const GridNodeView<MemorySpace>& nodes, const GridGeometry<real_t>& grid,
+real_t grid_update(const ExecutionSpace& space, const GridNodeView<MemorySpace>& nodes, const GridGeometry<real_t>& grid,
                  const Vec3<real_t>& gravity, const GridBoundary& boundary, real_t dt) {
-  Kokkos::parallel_for(
+  real_t work = 0;
+  Kokkos::parallel_reduce(
       "mpmrom::fom::grid_update", Kokkos::RangePolicy<ExecutionSpace>(space, 0, grid.num_nodes()),
-      KOKKOS_LAMBDA(const int node) {
+      KOKKOS_LAMBDA(const int node, real_t& node_work) {
         const real_t m = nodes(node, 0);
         if (m <= real_t(0)) {
           for (int d = 1; d < 4; ++d) nodes(node, d) = 0;
@@ -69,8 +73,13 @@ void grid_update(const ExecutionSpace& space, const GridNodeView<MemorySpace>& n
         int idx[3];
         grid.indices(node, idx[0], idx[1], idx[2]);
         const Vec3<real_t> constrained = constrained_node_velocity(v, idx, grid, boundary);
-        for (int d = 0; d < 3; ++d) nodes(node, d + 1) = constrained[d];
-      });
+        for (int d = 0; d < 3; ++d) {
+          node_work += (m * constrained[d] - nodes(node, d + 1)) * constrained[d];
+          nodes(node, d + 1) = constrained[d];
+        }
+      },
+      work);
+  return work;
 }
 
 }  // namespace mpmrom

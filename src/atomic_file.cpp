@@ -36,14 +36,14 @@ AtomicFile::~AtomicFile() {
   std::filesystem::remove(temporary_path_, ignored);
 }
 
-void AtomicFile::commit() {
+void AtomicFile::commit() { commit_to(final_path_); }
+
+void AtomicFile::commit_to(const std::string& path) {
   if (committed_) throw std::logic_error("'" + final_path_ + "' was already committed");
   sync_to_disk(temporary_path_);
   std::error_code error;
-  std::filesystem::rename(temporary_path_, final_path_, error);
-  if (error) {
-    throw std::runtime_error("cannot move '" + temporary_path_ + "' to '" + final_path_ + "': " + error.message());
-  }
+  std::filesystem::rename(temporary_path_, path, error);
+  if (error) throw std::runtime_error("cannot move '" + temporary_path_ + "' to '" + path + "': " + error.message());
   committed_ = true;
 }
 

@@ -20,6 +20,8 @@ class AtomicFile {
 
   // Flushes the temporary to disk and renames it onto the final path, replacing any file there.
   void commit();
+  // The same onto another path (a run that failed keeps its output under a name that says so).
+  void commit_to(const std::string& path);
 
  private:
   std::string final_path_;

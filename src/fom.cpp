@@ -7,6 +7,23 @@
 
 namespace mpmrom {
 
+std::string to_string(FomFailureCause cause) {
+  switch (cause) {
+    case FomFailureCause::LeftGrid: return "left the grid";
+    case FomFailureCause::NotFinite: return "not finite";
+    case FomFailureCause::Inverted: return "inverted";
+    case FomFailureCause::EnergyBlowUp: return "energy blow-up";
+  }
+  return "";
+}
+
+SimulationFailure::SimulationFailure(FomFailureCause cause, long step, double time, const std::string& detail)
+    : std::runtime_error("step " + std::to_string(step) + " (t = " + std::to_string(time) + " s): " + detail),
+      cause_(cause),
+      detail_(detail),
+      step_(step),
+      time_(time) {}
+
 Contact to_contact(ContactKind kind) {
   switch (kind) {
     case ContactKind::Sticky:
@@ -46,7 +63,8 @@ FomSolver::FomSolver(const Scene& scene, P2GStrategy strategy)
       grid_(grid_for_scene(scene)),
       material_(material_for_scene(scene)),
       wave_speed_(stable_time_step_wave_speed(material_, static_cast<real_t>(scene.material.density))),
-      outside_("mpmrom::fom::outside") {
+      outside_("mpmrom::fom::outside"),
+      problems_("mpmrom::fom::problems") {
   if (scene.forces.size() > static_cast<std::size_t>(kMaxExternalForces))
     throw std::runtime_error("at most " + std::to_string(kMaxExternalForces) + " [[force]] entries are supported");
   if (scene.dirichlet.size() > static_cast<std::size_t>(kMaxDirichletRegions))
@@ -106,15 +124,24 @@ FomSolver::FomSolver(const Scene& scene, P2GStrategy strategy)
   Kokkos::deep_copy(particles_.force_share, share);
 
   real_t speed = 0;
-  for (std::size_t p = 0; p < n; ++p)
+  for (std::size_t p = 0; p < n; ++p) {
     speed = std::max(speed, static_cast<real_t>(std::sqrt(v(p, 0) * v(p, 0) + v(p, 1) * v(p, 1) + v(p, 2) * v(p, 2))));
+    total_mass_ += samples.mass[p];
+  }
   max_speed_ = speed;
+  initial_energy_ = energy().total();
 }
+
+ParticleEnergy FomSolver::energy() const { return particle_energy(ExecutionSpace(), particles_, material_); }
+
+
 
 double FomSolver::stable_time_step() const { return scene_.cfl * scene_.dx / (wave_speed_ + max_speed_); }
 
 void FomSolver::step(double dt) {
   const ExecutionSpace space;
+  // The budget starts from the state the first step sees: callers may set initial fields through particles().
+  if (steps_ == 0) initial_energy_ = energy().total();
   ExternalForces external;
   for (const auto& f : scene_.forces) {
     const bool active = time_ >= f.start && time_ < f.end;
@@ -146,17 +173,30 @@ void FomSolver::step(double dt) {
     p2g_atomic(space, kernel, nodes_);
   else
     p2g_scatter(space, kernel, scatter_, nodes_);
-  grid_update(space, nodes_, grid_, gravity, boundary, static_cast<real_t>(dt));
-  max_speed_ = g2p(space, particles_, nodes_, grid_, static_cast<real_t>(dt), apic);
+  const double grid_work = grid_update(space, nodes_, grid_, gravity, boundary, static_cast<real_t>(dt));
+  max_speed_ = g2p(space, particles_, nodes_, grid_, static_cast<real_t>(dt), apic, problems_);
+  const double force_work = dt * external_force_power(space, particles_, external);
 
+  const auto fail = [&](FomFailureCause cause, const std::string& detail) {
+    throw SimulationFailure(cause, steps_ + 1, time_, detail);
+  };
   int outside = 0;
   Kokkos::deep_copy(outside, outside_);
   if (outside > 0)
-    throw std::runtime_error("step " + std::to_string(steps_ + 1) + " (t = " + std::to_string(time_) + " s): " +
-                             std::to_string(outside) + " material points left the grid; enlarge [grid] lo/hi");
-  if (!std::isfinite(max_speed_))
-    throw std::runtime_error("step " + std::to_string(steps_ + 1) + " (t = " + std::to_string(time_) +
-                             " s): the velocity is no longer finite; lower [time] cfl");
+    fail(FomFailureCause::LeftGrid, std::to_string(outside) + " material points left the grid; enlarge [grid] lo/hi");
+  auto problems = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), problems_);
+  const auto too_long = [dt]() { return " (a step of " + std::to_string(dt) + " s; lower [time] cfl or set max_cfl)"; };
+  if (problems(problem_not_finite) > 0)
+    fail(FomFailureCause::NotFinite, std::to_string(problems(problem_not_finite)) +
+                                         " material points have a non-finite velocity, position or det F" + too_long());
+  if (problems(problem_inverted) > 0)
+    fail(FomFailureCause::Inverted,
+         std::to_string(problems(problem_inverted)) + " material points inverted (det F <= 0)" + too_long());
+  // Only work put in counts: the budget must not shrink when the boundaries take energy out.
+  work_in_ += std::max(0.0, grid_work + force_work);
+  // Every 16 steps, or as soon as the fastest point alone could carry more kinetic energy than the limit.
+  const double kinetic_bound = 0.5 * total_mass_ * double(max_speed_) * double(max_speed_);
+  if ((steps_ + 1) % 16 == 0 || kinetic_bound > scene_.energy_growth * energy_budget()) check_energy(steps_ + 1, dt);
   time_ += dt;
   ++steps_;
 }
@@ -164,13 +204,35 @@ void FomSolver::step(double dt) {
 void FomSolver::advance_to(double target_time) {
   while (time_ < target_time) {
     const double remaining = target_time - time_;
-    const double dt_max = stable_time_step();
-    // Equal sub-steps that land on target_time, none longer than the CFL limit.
+    double dt_max = scene_.time_step > 0 ? scene_.time_step : stable_time_step();
+    if (scene_.max_cfl > 0) {
+      const double safe = scene_.max_cfl * scene_.dx / (wave_speed_ + max_speed_);
+      if (safe < dt_max) {
+        dt_max = safe;
+        ++safeguarded_steps_;
+      }
+    }
+    // Equal sub-steps that land on target_time, none longer than dt_max.
     const double substeps = std::ceil(remaining / dt_max - 1e-9);
     const double dt = substeps <= 1 ? remaining : remaining / substeps;
     step(dt);
     if (substeps <= 1) time_ = target_time;
   }
+  check_energy(steps_, 0);
+}
+
+void FomSolver::check_energy(long step, double dt) const {
+  if (!(scene_.energy_growth > 0)) return;
+  // The floor is the round-off scale: a run at rest under no load has zero energy and a zero budget.
+  const double floor = 1e-12 * total_mass_ * double(wave_speed_) * double(wave_speed_);
+  const double now = energy().total();
+  if (now > scene_.energy_growth * energy_budget() + floor)
+    throw SimulationFailure(FomFailureCause::EnergyBlowUp, step, time_,
+                            "the energy " + std::to_string(now) + " J exceeds " +
+                                std::to_string(scene_.energy_growth) +
+                                " times the initial energy plus the work put in (" + std::to_string(energy_budget()) +
+                                " J)" + (dt > 0 ? " after a step of " + std::to_string(dt) + " s" : std::string()) +
+                                "; lower [time] cfl or set max_cfl");
 }
 
 void FomSolver::reference(std::vector<real_t>& X, std::vector<real_t>& mass, std::vector<real_t>& volume) const {

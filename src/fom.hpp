@@ -1,11 +1,13 @@
 // The full-order model: explicit MPM on the default Kokkos execution space, driven through the kernels in kernels/.
 #pragma once
 
+#include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "kernels/g2p.hpp"
 #include "kernels/grid_update.hpp"
+#include "kernels/energy.hpp"
 #include "kernels/p2g.hpp"
 #include "scene.hpp"
 
@@ -21,6 +23,25 @@ struct ParticleFrame {
 GridGeometry<real_t> grid_for_scene(const Scene& scene);
 ElasticMaterial<real_t> material_for_scene(const Scene& scene);
 Contact to_contact(ContactKind kind);
+
+// What stopped a full-order run, detected in the step where it happened (docs/stability.md).
+enum class FomFailureCause { LeftGrid, NotFinite, Inverted, EnergyBlowUp };
+std::string to_string(FomFailureCause cause);
+
+class SimulationFailure : public std::runtime_error {
+ public:
+  SimulationFailure(FomFailureCause cause, long step, double time, const std::string& detail);
+  FomFailureCause cause() const { return cause_; }
+  long step() const { return step_; }    // the step (1-based) that produced the bad state
+  double time() const { return time_; }  // at the start of that step, s
+  const std::string& detail() const { return detail_; }  // the message without its "step N (t = ...)" prefix
+
+ private:
+  FomFailureCause cause_;
+  std::string detail_;
+  long step_;
+  double time_;
+};
 
 class FomSolver {
  public:
@@ -38,16 +59,28 @@ class FomSolver {
 
   // The CFL-limited time step: cfl * dx / (P-wave speed + fastest particle).
   double stable_time_step() const;
-  // One explicit step of length dt. Throws if a material point leaves the grid.
+  // One explicit step of length dt. Throws SimulationFailure when a material point leaves the grid, a field stops
+  // being finite, a deformation gradient inverts (det F <= 0) or the energy exceeds its budget.
   void step(double dt);
-  // Sub-steps under the CFL limit so that the last one lands exactly on `target_time`.
+  // Equal steps that land exactly on `target_time`: no longer than the CFL step (or the scene's fixed dt), and than
+  // the max_cfl safeguard allows. Checks the energy budget at the end.
   void advance_to(double target_time);
+
+  // Kinetic + elastic energy now, and the budget it is held to: initial energy plus the positive work put in by
+  // external forces, gravity and moving boundaries (a stable run stays below it, up to the transfers' small errors).
+  ParticleEnergy energy() const;
+  double energy_budget() const { return initial_energy_ + work_in_; }
+  // Steps the max_cfl safeguard shortened.
+  long safeguarded_steps() const { return safeguarded_steps_; }
 
   // Reference configuration (host, row-major) and the current fields.
   void reference(std::vector<real_t>& X, std::vector<real_t>& mass, std::vector<real_t>& volume) const;
   ParticleFrame frame() const;
 
  private:
+  // Throws SimulationFailure (energy blow-up) when the energy exceeds energy_growth times the budget.
+  void check_energy(long step, double dt) const;
+
   Scene scene_;
   P2GStrategy strategy_;
   GridGeometry<real_t> grid_;
@@ -57,6 +90,10 @@ class FomSolver {
   GridNodeView<MemorySpace> nodes_;
   GridScatterView<ExecutionSpace, MemorySpace> scatter_;
   Kokkos::View<int, MemorySpace> outside_;
+  ParticleProblemCounts<MemorySpace> problems_;
+  double total_mass_ = 0;
+  double initial_energy_ = 0, work_in_ = 0;
+  long safeguarded_steps_ = 0;
   double time_ = 0;
   long steps_ = 0;
   real_t max_speed_ = 0;

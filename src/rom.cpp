@@ -298,6 +298,10 @@ nlohmann::json RomSettings::to_json() const {
           {"projection_iterations", projection_iterations},
           {"max_condition", max_condition},
           {"regularization", regularization},
+          {"regularize", regularize},
+          {"inversion_fallback", inversion_fallback},
+          {"max_failed_inversions", max_failed_inversions},
+          {"energy_growth", energy_growth},
           {"end_time", end_time}};
 }
 
@@ -313,6 +317,10 @@ void RomSettings::validate() const {
   if (newton_iterations < 1) throw std::invalid_argument("--newton-iterations must be >= 1");
   if (max_condition < 0 || regularization < 0)
     throw std::invalid_argument("--max-condition and --regularization must be >= 0");
+  if (!(max_failed_inversions >= 0 && max_failed_inversions <= 1))
+    throw std::invalid_argument("--max-failed-inversions must be a fraction in [0, 1]");
+  if (!(energy_growth >= 0) || !std::isfinite(energy_growth))
+    throw std::invalid_argument("--energy-growth must be >= 0 (0: no check)");
   if (!(end_time >= 0) || !std::isfinite(end_time)) throw std::invalid_argument("--end-time must be >= 0 (0: the scene's)");
 }
 
@@ -668,9 +676,69 @@ std::string impl::describe_flags(int flags) {
   if (flags & rom::flag_left_node_set)
     causes.push_back("a sample point left the precomputed node set (motion beyond the training envelope)");
   if (flags & rom::flag_singular) causes.push_back("singular normal equations even after regularisation");
+  if (flags & rom::flag_ill_posed)
+    causes.push_back("ill-conditioned normal equations (condition estimate above the limit, regularisation off)");
+  if (flags & rom::flag_energy)
+    causes.push_back("energy blow-up: the latent speed exceeded --energy-growth times the fastest training motion");
+  if (flags & rom::flag_inversion)
+    causes.push_back("Newton's inversion failed at more than --max-failed-inversions of the quadrature points");
   std::string out;
   for (std::size_t i = 0; i < causes.size(); ++i) out += (i ? "; " : "") + causes[i];
   return out;
+}
+
+double training_latent_speed(const Model& model) {
+  const int r = model.latent_dim;
+  std::map<std::int64_t, std::vector<int>> run_codes;
+  for (std::size_t c = 0; c < model.num_codes(); ++c) run_codes[model.code_run[c]].push_back(int(c));
+  double fastest = 0;
+  for (auto& [run, codes] : run_codes) {
+    std::sort(codes.begin(), codes.end(), [&](int a, int b) { return model.code_time[a] < model.code_time[b]; });
+    for (std::size_t k = 0; k + 1 < codes.size(); ++k) {
+      const double dt = model.code_time[codes[k + 1]] - model.code_time[codes[k]];
+      if (!(dt > 0)) continue;
+      double step2 = 0;
+      for (int q = 0; q < r; ++q) {
+        const double d = model.codes[std::size_t(codes[k + 1]) * r + q] - model.codes[std::size_t(codes[k]) * r + q];
+        step2 += d * d;
+      }
+      fastest = std::max(fastest, std::sqrt(step2) / dt);
+    }
+  }
+  return fastest;
+}
+
+std::string training_range_warning(const Model& model, const std::vector<std::string>& names,
+                                   const std::vector<double>& values) {
+  if (model.scene_text.empty()) return "";
+  Scene trained;
+  try {
+    trained = parse_scene(model.scene_text, "the model's scene");
+  } catch (const std::exception&) {
+    return "";  // a model from another version of the scene format: no range to compare with
+  }
+  const ParameterDesign& design = trained.design;
+  const auto runs = design.all_runs();
+  std::string warning;
+  for (std::size_t i = 0; i < names.size() && i < values.size(); ++i) {
+    const auto it = std::find(design.names.begin(), design.names.end(), names[i]);
+    if (it == design.names.end()) continue;
+    const std::size_t column = std::size_t(it - design.names.begin());
+    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+    for (std::size_t run = 0; run < runs.size(); ++run) {
+      if (std::find(design.test_runs.begin(), design.test_runs.end(), int(run)) != design.test_runs.end()) continue;
+      lo = std::min(lo, runs[run][column]);
+      hi = std::max(hi, runs[run][column]);
+    }
+    if (!(lo <= hi) || (values[i] >= lo && values[i] <= hi)) continue;
+    const double beyond = values[i] < lo ? lo - values[i] : values[i] - hi;
+    std::ostringstream line;
+    line << (warning.empty() ? "" : "; ") << names[i] << " = " << values[i] << " lies outside the training range ["
+         << lo << ", " << hi << "]";
+    if (hi > lo) line << " by " << std::lround(100 * beyond / (hi - lo)) << " % of its width";
+    warning += line.str();
+  }
+  return warning.empty() ? warning : warning + " (extrapolation: expect larger errors)";
 }
 
 RomResult run_rollouts(const Model& model, const std::string& scene_path, const std::vector<std::string>& names,
@@ -728,13 +796,16 @@ RomResult run_rollouts(const Model& model, const std::string& scene_path, const 
     xhatdot0.insert(xhatdot0.end(), first_xhatdot.begin(), first_xhatdot.end());
   }
   if (settings.end_time > 0) impl::apply_horizon(first, settings.end_time);
+  const double max_latent_speed = settings.energy_growth * training_latent_speed(model);
   result.setup_seconds = seconds_since(start);
   const Vector params = upload<Vector>("mpmrom::rom::params", model.weights, model.layout().num_params);
   nn::dispatch_max_width(model.layout().widest, [&](auto width) {
     const rom::MlpManifold<decltype(width)::value, MemorySpace> manifold{impl::device_mlp(model, params)};
     impl::step_batch(manifold, model.latent_dim, {model.X, model.mass, model.volume}, first, loads, xhat0, xhatdot0,
-                     settings, reduction, result, progress);
+                     settings, max_latent_speed, reduction, result, progress);
   });
+  for (std::size_t c = 0; c < cases.size(); ++c)
+    result.outcomes[c].warning = training_range_warning(model, names, cases[c].values);
   return result;
 }
 

@@ -39,6 +39,11 @@ struct RomSettings {
   int projection_iterations = 2;
   double max_condition = 0;        // regularise the normal equations above this estimate (0: 0.01 / epsilon)
   double regularization = 0;       // mu = regularization * trace / r (0: 100 epsilon)
+  // Safeguards and detectors (docs/stability.md).
+  bool regularize = true;            // false: an ill-conditioned projection stops the rollout instead
+  bool inversion_fallback = true;    // Algorithm 2: retry a failed inversion cold, then reuse last step's solution
+  double max_failed_inversions = 0.05;  // Algorithm 2: stop when more than this fraction fails in one step
+  double energy_growth = 10;  // stop when |xhatdot| exceeds this times the fastest training motion (0: no check)
   // Horizon (s), rounded to a whole number of the scene's output intervals (0: the scene's end time).
   double end_time = 0;
 
@@ -82,8 +87,10 @@ struct RolloutOutcome {
   double stopped_at = -1;    // time of the failure (s), -1 if none
   double max_condition = 0;  // largest condition estimate of its normal equations
   long regularized_steps = 0;
-  long inversion_failures = 0;  // Algorithm 2: quadrature points dropped for a failed inversion, all steps
-  std::string message;          // empty, or one line on what happened
+  long inversion_failures = 0;   // Algorithm 2: failed inversions, all steps
+  long inversion_fallbacks = 0;  // of which the point used its previous step's solution
+  std::string message;           // empty, or one line on what happened
+  std::string warning;           // empty, or one line: parameters outside the training range
 };
 
 struct RomResult {
@@ -104,6 +111,15 @@ struct RomProgress {
   long steps = 0;
   double seconds = 0;
 };
+
+// The fastest motion of the training codes, max |code(t_k+1) - code(t_k)| / (t_k+1 - t_k) within a run: the scale of
+// the latent speed limit (RomSettings::energy_growth).
+double training_latent_speed(const Model& model);
+
+// One line per parameter of `values` outside the range the model's training runs spanned (from the [design] of the
+// scene the model was trained on), with the distance in widths of that range; empty when all lie inside.
+std::string training_range_warning(const Model& model, const std::vector<std::string>& names,
+                                   const std::vector<double>& values);
 
 // Advances every case from the scene's initial state (projected onto the manifold) to its end time, recording the
 // latent state at the scene's output times. scene_path: the scene file whose parameters the cases set.

@@ -279,6 +279,9 @@ Scene parse(const std::string& path, const std::string& text, const std::vector<
     scene.end_time = r.required_number("end_time");
     scene.num_outputs = static_cast<int>(r.number("outputs", 1));
     scene.cfl = r.number("cfl", 0.3);
+    scene.time_step = r.number("dt", 0);
+    scene.max_cfl = r.number("max_cfl", 0);
+    scene.energy_growth = r.number("energy_growth", 10);
     const std::string transfer = r.string("transfer", "apic");
     if (transfer == "apic")
       scene.transfer = TransferKind::APIC;
@@ -289,7 +292,12 @@ Scene parse(const std::string& path, const std::string& text, const std::vector<
     r.check_all_used();
     if (!(scene.end_time > 0)) fail(where, "end_time must be positive");
     if (scene.num_outputs < 1) fail(where, "outputs must be at least 1");
-    if (!(scene.cfl > 0 && scene.cfl <= 1)) fail(where, "cfl must lie in (0, 1]");
+    // Above 1 the explicit scheme is beyond its stability limit: allowed for stability studies (docs/stability.md).
+    if (!(scene.cfl > 0 && scene.cfl <= 10)) fail(where, "cfl must lie in (0, 10]");
+    if (!(scene.time_step >= 0 && std::isfinite(scene.time_step))) fail(where, "dt must be >= 0 (0: from cfl)");
+    if (!(scene.max_cfl >= 0 && scene.max_cfl <= 10)) fail(where, "max_cfl must lie in [0, 10] (0: no sub-stepping)");
+    if (!(scene.energy_growth >= 0 && std::isfinite(scene.energy_growth)))
+      fail(where, "energy_growth must be >= 0 (0: no energy check)");
   }
 
   scene.gravity = top.vec3("gravity", {0, 0, 0});

@@ -100,6 +100,9 @@ struct Scene {
   double end_time = 0;
   int num_outputs = 1;  // output times are end_time * k / num_outputs, k = 0..num_outputs
   double cfl = 0.3;
+  double time_step = 0;       // [time] dt: a fixed (longest) step instead of the CFL step; 0: from cfl
+  double max_cfl = 0;         // safeguard: sub-step any step whose CFL number exceeds this; 0: off
+  double energy_growth = 10;  // stop when energy exceeds this times (initial energy + work put in); 0: off
   ParameterDesign design;
 };
 

@@ -44,7 +44,15 @@ void simulate(const Scene& scene, const std::string& out_path, P2GStrategy strat
   double step_seconds = 0;
   for (int k = 0; k < num_frames; ++k) {
     const auto step_start = std::chrono::steady_clock::now();
-    solver.advance_to(scene.end_time * k / scene.num_outputs);
+    try {
+      solver.advance_to(scene.end_time * k / scene.num_outputs);
+    } catch (const SimulationFailure& failure) {
+      // The frames before the failure stay readable (ParaView, and the cause) under a name no reader mistakes for a
+      // finished run.
+      const std::string kept = writer.commit_failed(failure.what());
+      throw SimulationFailure(failure.cause(), failure.step(), failure.time(),
+                              failure.detail() + "; the " + std::to_string(k) + " frames before it are in " + kept);
+    }
     Kokkos::fence();
     step_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - step_start).count();
     const ParticleFrame f = solver.frame();

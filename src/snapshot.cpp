@@ -189,20 +189,33 @@ void SnapshotWriter::append(double time, const real_t* x, const real_t* v, const
   state_ = State::open;
 }
 
-void SnapshotWriter::commit() {
+std::string failed_path_for(const std::string& snapshot_path) {
+  return std::filesystem::path(snapshot_path).replace_extension(".failed.h5").string();
+}
+
+void SnapshotWriter::commit() { finish(path_, ""); }
+
+std::string SnapshotWriter::commit_failed(const std::string& failure) {
+  const std::string path = failed_path_for(path_);
+  finish(path, failure);
+  return path;
+}
+
+void SnapshotWriter::finish(const std::string& h5_path, const std::string& failure) {
   require_open("commit");
   state_ = State::failed;
   write_xdmf_views(file_, num_points_, times_.size(), {&x_, &v_, &F_});
-  file_.set_integer_attribute("complete", 1);
+  file_.set_integer_attribute("complete", failure.empty() ? 1 : 0);
+  if (!failure.empty()) file_.set_string_attribute("failure", failure);
   // Every object closed first, so that closing the file really closes it and reports a failed final flush.
   for (hdf5::Dataset* dataset : {&time_, &x_, &v_, &F_, &C_}) dataset->close();
   file_.close();
   std::ofstream xdmf(xdmf_.temporary_path(), std::ios::trunc);
-  xdmf << xdmf_text(std::filesystem::path(path_).filename().string(), scene_name_, num_points_, times_);
+  xdmf << xdmf_text(std::filesystem::path(h5_path).filename().string(), scene_name_, num_points_, times_);
   xdmf.close();
   if (!xdmf) bad(xdmf_.temporary_path(), std::string("cannot write the XDMF side file: ") + std::strerror(errno));
-  h5_.commit();
-  xdmf_.commit();
+  h5_.commit_to(h5_path);
+  xdmf_.commit_to(xdmf_path_for(h5_path));
   state_ = State::committed;
 }
 
@@ -219,6 +232,7 @@ Snapshot read_snapshot(const std::string& path, SnapshotFields fields) {
                   std::to_string(snapshot_format_version) + ")");
   }
   if (!file.has_attribute("complete") || file.integer_attribute("complete") != 1) {
+    if (file.has_attribute("failure")) bad(path, "the frames of a run that failed: " + file.string_attribute("failure"));
     bad(path, "incomplete snapshot (the run did not finish)");
   }
 

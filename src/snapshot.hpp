@@ -32,6 +32,9 @@ std::string xdmf_path_for(const std::string& snapshot_path);
 // output time, commit() finalises the file, writes the XDMF side file and renames both into place. If the writer is
 // destroyed without commit() (an exception, a failed run), nothing appears under the final names. All arrays are on
 // the host and row-major; every value must be finite, else the call throws std::runtime_error and writes nothing.
+// Where a failed run's frames go: "runs/run_003.h5" -> "runs/run_003.failed.h5".
+std::string failed_path_for(const std::string& snapshot_path);
+
 class SnapshotWriter {
  public:
   // X: (n, 3) reference positions in m, mass: (n) in kg, volume: (n) reference volumes in m^3 (both positive).
@@ -44,6 +47,9 @@ class SnapshotWriter {
   // F: (n, 3, 3) deformation gradients; C: (n, 3, 3) affine velocity matrices (APIC) in 1/s.
   void append(double time, const real_t* x, const real_t* v, const real_t* F, const real_t* C);
   void commit();
+  // For a run that failed: keeps the frames appended so far under failed_path_for(path) (and its XDMF), with the
+  // reason in the root attribute "failure" and "complete" = 0, and returns that path. The path itself stays untouched.
+  std::string commit_failed(const std::string& failure);
 
   std::size_t num_points() const { return num_points_; }
   std::size_t num_frames() const { return times_.size(); }
@@ -51,6 +57,7 @@ class SnapshotWriter {
  private:
   enum class State { open, failed, committed };
   void require_open(const char* action) const;
+  void finish(const std::string& h5_path, const std::string& failure);
 
   std::string path_;
   std::string scene_name_;

@@ -298,9 +298,9 @@ std::vector<double> affine_rate(const Scene& scene) {
   return {v[0], v[1], v[2], 0, -w[2], w[1], w[2], 0, -w[0], -w[1], w[0], 0};
 }
 
-RomResult affine_rollouts(const Scene& scene, const Motion& run, RomMethod method, int samples, int batch) {
+RomResult affine_rollouts(const Scene& scene, const Motion& run, RomMethod method, int samples, int batch,
+                          RomSettings settings = {}, double max_latent_speed = 0) {
   const std::size_t P = run.mass.size();
-  RomSettings settings;
   settings.method = method;
   settings.samples = samples;
   std::vector<int> chosen(P);
@@ -327,7 +327,8 @@ RomResult affine_rollouts(const Scene& scene, const Motion& run, RomMethod metho
     loads.push_back(impl::loads_for_scene(scene, points));
   }
   RomResult result;
-  impl::step_batch(manifold, 12, points, scene, loads, xhat0, xhatdot0, settings, reduction, result, {});
+  impl::step_batch(manifold, 12, points, scene, loads, xhat0, xhatdot0, settings, max_latent_speed, reduction, result,
+                   {});
   return result;
 }
 
@@ -435,6 +436,66 @@ TEST(RomHorizon, ShorterHorizonIsAPrefixOfTheFullRollout) {
       ASSERT_EQ(part.xhatdot[i], full.xhatdot[i]) << to_string(method) << " entry " << i;
     }
   }
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// Detectors (docs/stability.md): each constructed case stops the rollout before its end with the documented cause;
+// the stopped rollout keeps its last good (finite) state and reports where it stopped.
+void expect_stopped_by(const RomResult& result, int flag, const std::string& cause) {
+  const RolloutOutcome& o = result.outcomes[0];
+  EXPECT_TRUE(o.flags & flag) << o.message;
+  EXPECT_GE(o.frames_completed, 1);
+  EXPECT_LT(o.frames_completed, int(result.times.size()));
+  EXPECT_GT(o.stopped_at, 0);
+  EXPECT_NE(o.message.find(cause), std::string::npos) << o.message;
+  for (const double value : result.xhat) ASSERT_TRUE(std::isfinite(value));
+  for (const double value : result.xhatdot) ASSERT_TRUE(std::isfinite(value));
+}
+
+TEST(RomDetectors, LatentSpeedAboveTheLimitIsAnEnergyBlowUp) {
+  const Scene scene = affine_scene({0, 0, 0}, {0.5, -1.0, 1.5});
+  const Motion run = full_order_motion(scene);
+  double speed = 0;
+  for (const double rate : affine_rate(scene)) speed += rate * rate;
+  // The exact motion keeps |xhatdot| = |rate|: a limit of half that trips at the first step, twice it never does.
+  for (const RomMethod method : {RomMethod::MaterialPoint, RomMethod::SampleNode}) {
+    expect_stopped_by(affine_rollouts(scene, run, method, 16, 1, {}, 0.5 * std::sqrt(speed)), rom::flag_energy,
+                      "energy blow-up");
+    EXPECT_EQ(affine_rollouts(scene, run, method, 16, 1, {}, 2 * std::sqrt(speed)).outcomes[0].flags & rom::fatal_flags,
+              0);
+  }
+}
+
+TEST(RomDetectors, IllConditionedProjectionStopsWhenRegularisationIsOff) {
+  const Scene scene = affine_scene({0, 0, -9.81}, {0, 0, 0});
+  const Motion run = full_order_motion(scene);
+  // Two sample points give 6 equations for 12 unknowns: J^T J is singular.
+  RomSettings off;
+  off.regularize = false;
+  expect_stopped_by(affine_rollouts(scene, run, RomMethod::MaterialPoint, 2, 1, off), rom::flag_ill_posed,
+                    "ill-conditioned normal equations");
+  // The default regularises instead, counts it, and goes on.
+  const RomResult on = affine_rollouts(scene, run, RomMethod::MaterialPoint, 2, 1);
+  EXPECT_EQ(on.outcomes[0].flags & rom::fatal_flags, 0) << on.outcomes[0].message;
+  EXPECT_GT(on.outcomes[0].regularized_steps, 0);
+}
+
+TEST(RomDetectors, FailedInversionsAboveTheLimitStopAlgorithm2) {
+  const Scene scene = affine_scene({0, 0, -9.81}, {0, 0, 0});
+  const Motion run = full_order_motion(scene);
+  // A tolerance below rounding (1e-30 cells) fails every inversion once the map is no longer the identity (at
+  // xhat = 0, the first step, the residual is exactly zero), and the rollout stops soon after.
+  RomSettings strict;
+  strict.newton_tolerance = 1e-30;
+  const RomResult with_fallback = affine_rollouts(scene, run, RomMethod::SampleNode, 16, 1, strict);
+  expect_stopped_by(with_fallback, rom::flag_inversion, "inversion failed");
+  // The fallback kept every failed point on the material point it found in the first step.
+  EXPECT_GT(with_fallback.outcomes[0].inversion_failures, 0);
+  EXPECT_EQ(with_fallback.outcomes[0].inversion_fallbacks, with_fallback.outcomes[0].inversion_failures);
+  strict.inversion_fallback = false;
+  const RomResult without = affine_rollouts(scene, run, RomMethod::SampleNode, 16, 1, strict);
+  expect_stopped_by(without, rom::flag_inversion, "inversion failed");
+  EXPECT_EQ(without.outcomes[0].inversion_fallbacks, 0);
 }
 
 }  // namespace

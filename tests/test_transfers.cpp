@@ -73,6 +73,7 @@ struct TransferSetup {
   ParticleViews<MemorySpace> particles;
   GridNodeView<MemorySpace> nodes;
   Kokkos::View<int, MemorySpace> outside{"outside"};
+  ParticleProblemCounts<MemorySpace> problems{"problems"};
 
   // n particles scattered in the middle of a 16^3-node grid, away from the wall zones; velocities v = A x + b + noise.
   TransferSetup(int n, const double A[3][3], const double b[3], double noise, unsigned seed) {
@@ -129,6 +130,13 @@ struct TransferSetup {
   void update() {
     grid_update(ExecutionSpace(), nodes, grid, Vec3<real_t>::zero(), GridBoundary{}, real_t(0));
   }
+  // G2P, which must find no particle in a bad state (a finite, non-inverted input stays so at dt = 0).
+  void g2p(bool apic) {
+    mpmrom::g2p(ExecutionSpace(), particles, nodes, grid, real_t(0), apic, problems);
+    auto counts = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), problems);
+    EXPECT_EQ(counts(problem_not_finite), 0);
+    EXPECT_EQ(counts(problem_inverted), 0);
+  }
 };
 
 template <class ExecutionSpace>
@@ -156,7 +164,7 @@ void check_conservation(P2GStrategy strategy, bool apic) {
   const Totals grid_momenta = grid_state(s, false);
   s.update();
   const Totals grid_velocities = grid_state(s, true);
-  g2p(ExecutionSpace(), s.particles, s.nodes, s.grid, real_t(0), apic);
+  s.g2p(apic);
   const Totals particles_after = particle_state(s, apic);
   // Totals are sums of 27 n rounded terms whose magnitudes add up to at most 8 x the total mass (|x| < 0.5,
   // |v| < 3): rounding errors of random sign grow like sqrt(27 n) eps times that. PIC loses the affine part, so
@@ -175,7 +183,7 @@ void check_affine_reproduced(P2GStrategy strategy) {
   TransferSetup<ExecutionSpace> s(n, A, b, 0.0, 5);
   s.p2g(strategy, true);
   s.update();
-  g2p(ExecutionSpace(), s.particles, s.nodes, s.grid, real_t(0), true);
+  s.g2p(true);
   auto x = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), s.particles.x);
   auto v = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), s.particles.v);
   auto C = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), s.particles.C);

@@ -8,7 +8,9 @@
 // (dense/cholesky.hpp). Guard: the condition number is estimated from the Cholesky factor as (max L_ii / min L_ii)^2
 // (a lower bound of cond_2); above max_condition, or when the factorisation fails, the system is regularised with
 // mu I, mu = regularization * trace / r, and the rollout flagged; if that fails too, or the solution is not finite,
-// the rollout is flagged and its state left as it was, never set to NaN.
+// the rollout is flagged and its state left as it was, never set to NaN. With regularisation off, an ill-conditioned
+// system stops the rollout instead (flag_ill_posed). A projected latent speed |xhatdot| above max_latent_speed stops
+// it too (flag_energy): the reduced kinetic energy has left every bound the training motion sets.
 #pragma once
 
 #include "kernels/dense/cholesky.hpp"
@@ -17,11 +19,14 @@
 namespace mpmrom::rom {
 
 // Flags after which a rollout no longer advances.
-inline constexpr int fatal_flags = flag_inverted | flag_not_finite | flag_left_node_set | flag_singular;
+inline constexpr int fatal_flags = flag_inverted | flag_not_finite | flag_left_node_set | flag_singular |
+                                   flag_ill_posed | flag_energy | flag_inversion;
 
 struct ProjectionGuard {
-  real_t max_condition = 0;   // regularise above this condition estimate
-  real_t regularization = 0;  // mu = regularization * trace(J^T J) / r
+  real_t max_condition = 0;     // regularise (or, with regularize false, stop) above this condition estimate
+  real_t regularization = 0;    // mu = regularization * trace(J^T J) / r
+  bool regularize = true;
+  real_t max_latent_speed = 0;  // 0: no limit
 };
 
 // Solves (A + 0) x = rhs for the r x r SPD matrix A (row-major, lda = max_latent_dim) with the guard above. Returns
@@ -47,6 +52,7 @@ KOKKOS_INLINE_FUNCTION int SerialGuardedSolve(const real_t* A, const real_t* rhs
       condition = (hi / lo) * (hi / lo);
       ok = attempt == 1 || condition <= guard.max_condition;
     }
+    if (!ok && !guard.regularize) return flags | flag_ill_conditioned | flag_ill_posed;
     if (ok) {
       for (int i = 0; i < r; ++i) x[i] = rhs[i];
       dense::SerialCholeskySolve(L, r, lda, x);
@@ -125,6 +131,14 @@ struct ProjectVelocities {
       if (raised & flag_ill_conditioned) ++regularized_steps(b);
       if (raised) flags(b) |= raised;
       if (raised & fatal_flags) return;
+      if (guard.max_latent_speed > real_t(0)) {
+        real_t speed2 = 0;
+        for (int q = 0; q < r; ++q) speed2 += rate[q] * rate[q];
+        if (speed2 > guard.max_latent_speed * guard.max_latent_speed) {
+          flags(b) |= flag_energy;
+          return;
+        }
+      }
       for (int q = 0; q < r; ++q) {
         xhatdot_next(b, q) = rate[q];
         xhat_next(b, q) = xhat(b, q) + dt * rate[q];

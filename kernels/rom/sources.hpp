@@ -34,6 +34,9 @@ enum RolloutFlag : int {
   flag_ill_conditioned = 4,   // the normal equations needed regularisation
   flag_left_node_set = 8,     // a sample point's stencil left the precomputed node set
   flag_singular = 16,         // the normal equations stayed singular after regularisation
+  flag_ill_posed = 32,        // the normal equations were ill-conditioned and regularisation was off
+  flag_energy = 64,           // the latent speed exceeded its limit (the reduced energy blew up)
+  flag_inversion = 128,       // Algorithm 2: Newton's inversion failed at too many quadrature points in one step
 };
 
 // Writes one source: kinematics at a point of mass m and current volume `volume`.
@@ -121,7 +124,9 @@ struct MaterialPointSources {
 
 // Algorithm 2, step 3: quadrature points fixed in the current configuration; their reference positions are found by
 // inverting g (warm-started from the previous step's). A point whose inverse lies outside the reference solid is
-// outside the material and carries nothing; a failed inversion is dropped the same way and counted.
+// outside the material and carries nothing. A failed inversion is counted; with the fallback on it is retried from
+// the cold start, and if that fails too the point stands for the material point it found last step (placed where g
+// puts it now); without a previous solution (or the fallback) it is dropped.
 template <class Manifold, class MemorySpace>
 struct QuadratureSources {
   Manifold manifold;
@@ -130,6 +135,7 @@ struct QuadratureSources {
   ReferenceDomain domain;
   real_t density;
   NewtonSettings newton;
+  bool fallback;
   BatchMatrix<MemorySpace> xhat, xhatdot;
   Kokkos::View<const RolloutLoads*, MemorySpace> loads;
   ElasticMaterial<real_t> material;
@@ -138,26 +144,47 @@ struct QuadratureSources {
   BatchVectors<MemorySpace> reference;           // (rollouts, quadrature points, 3): warm start in, inverse out
   Kokkos::View<unsigned char**, MemorySpace> converged;  // (rollouts, quadrature points): reference holds a solution
   SourceView<MemorySpace> sources;
-  Kokkos::View<int*, MemorySpace> failures;  // per rollout, this step
+  Kokkos::View<int*, MemorySpace> failures;       // per rollout, all steps
+  Kokkos::View<int*, MemorySpace> step_failures;  // per rollout, this step (CheckInversions resets it)
+  Kokkos::View<int*, MemorySpace> fallbacks;      // per rollout, all steps: points that used last step's solution
   Kokkos::View<int*, MemorySpace> flags;
+
+  // One fixed-point step from the identity, X = x - (g(x) - x): the cold start.
+  KOKKOS_INLINE_FUNCTION Vec3<real_t> cold_start(int b, const Vec3<real_t>& xq) const {
+    real_t g[3], F[3][3];
+    manifold.position_and_gradient(&xq[0], &xhat(b, 0), g, F);
+    return Vec3<real_t>{{xq[0] - (g[0] - xq[0]), xq[1] - (g[1] - xq[1]), xq[2] - (g[2] - xq[2])}};
+  }
 
   KOKKOS_INLINE_FUNCTION void operator()(const long e) const {
     const int num_points = int(x.extent(0));
     const int b = int(e / num_points), q = int(e % num_points);
     const Vec3<real_t> xq{{x(q, 0), x(q, 1), x(q, 2)}};
-    Vec3<real_t> Xq{{reference(b, q, 0), reference(b, q, 1), reference(b, q, 2)}};
-    if (!converged(b, q)) {
-      // Cold start: one fixed-point step from the identity, X = x - (g(x) - x).
-      real_t g[3], F[3][3];
-      manifold.position_and_gradient(&xq[0], &xhat(b, 0), g, F);
-      for (int d = 0; d < 3; ++d) Xq[d] = xq[d] - (g[d] - xq[d]);
+    const Vec3<real_t> previous{{reference(b, q, 0), reference(b, q, 1), reference(b, q, 2)}};
+    const bool had_solution = converged(b, q) != 0;
+    Vec3<real_t> Xq = had_solution ? previous : cold_start(b, xq);
+    bool ok = SerialInvertMap(manifold, xq, &xhat(b, 0), newton, Xq);
+    if (!ok && fallback && had_solution) {
+      Xq = cold_start(b, xq);
+      ok = SerialInvertMap(manifold, xq, &xhat(b, 0), newton, Xq);
     }
-    const bool ok = SerialInvertMap(manifold, xq, &xhat(b, 0), newton, Xq);
-    converged(b, q) = ok ? 1 : 0;
-    if (ok)
+    if (ok) {
       for (int d = 0; d < 3; ++d) reference(b, q, d) = Xq[d];
-    if (!ok || !domain.contains(Xq)) {
-      if (!ok) Kokkos::atomic_add(&failures(b), 1);
+      converged(b, q) = 1;
+    } else {
+      Kokkos::atomic_add(&failures(b), 1);
+      Kokkos::atomic_add(&step_failures(b), 1);
+      if (fallback && had_solution) {
+        Xq = previous;
+        Kokkos::atomic_add(&fallbacks(b), 1);
+      } else {
+        converged(b, q) = 0;
+        clear_source(sources, b, q);
+        for (int d = 0; d < 3; ++d) sources(b, q, source_x + d) = xq[d];
+        return;
+      }
+    }
+    if (!domain.contains(Xq)) {
       clear_source(sources, b, q);
       for (int d = 0; d < 3; ++d) sources(b, q, source_x + d) = xq[d];
       return;
@@ -170,9 +197,24 @@ struct QuadratureSources {
       clear_source(sources, b, q);
       return;
     }
-    for (int d = 0; d < 3; ++d) kin.g[d] = xq[d];  // the point sits where it was placed, up to the tolerance
+    if (ok)
+      for (int d = 0; d < 3; ++d) kin.g[d] = xq[d];  // the point sits where it was placed, up to the tolerance
     const Vec3<real_t> f = loads(b).force_per_unit_mass(Xq, time);
     write_source(sources, b, q, kin, density * weight(q) / J, weight(q), F, f, material, dt, apic);
+  }
+};
+
+// Algorithm 2: after the quadrature sources of a step, stops each rollout whose failed inversions exceed the limit
+// and resets the step's count. Parallelism: one thread per rollout.
+template <class MemorySpace>
+struct CheckInversions {
+  Kokkos::View<int*, MemorySpace> step_failures;
+  int max_failures;
+  Kokkos::View<int*, MemorySpace> flags;
+
+  KOKKOS_INLINE_FUNCTION void operator()(const int b) const {
+    if (step_failures(b) > max_failures) flags(b) |= flag_inversion;
+    step_failures(b) = 0;
   }
 };
 

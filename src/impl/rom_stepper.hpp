@@ -45,12 +45,13 @@ HyperReduction hyper_reduction_from_motion(const Scene& scene, const RomSettings
                                            std::size_t P, const std::vector<int>& next = {});
 
 // Advances the batch from (xhat0, xhatdot0) (rollouts x r, row-major) through the scene's output times on manifold,
-// filling result's times, latent trajectories, outcomes and step timing.
+// filling result's times, latent trajectories, outcomes and step timing. max_latent_speed: the energy detector's
+// limit on |xhatdot| (0: none).
 template <class Manifold>
 void step_batch(const Manifold& manifold, int latent_dim, const ReferencePoints& model, const Scene& scene,
                 const std::vector<rom::RolloutLoads>& host_loads,
                 const std::vector<double>& xhat0, const std::vector<double>& xhatdot0, const RomSettings& settings,
-                const HyperReduction& h, RomResult& result, const std::function<void(const RomProgress&)>& progress) {
+                double max_latent_speed, const HyperReduction& h, RomResult& result, const std::function<void(const RomProgress&)>& progress) {
   using ExecutionSpace = Kokkos::DefaultExecutionSpace;
   using MemorySpace = ExecutionSpace::memory_space;
   using Vector = DeviceVector;
@@ -120,12 +121,17 @@ void step_batch(const Manifold& manifold, int latent_dim, const ReferencePoints&
   Kokkos::View<unsigned char**, MemorySpace> converged("mpmrom::rom::converged", point_method ? 0 : B,
                                                       point_method ? 0 : K);
   Kokkos::View<int*, MemorySpace> failures("mpmrom::rom::failures", B), flags("mpmrom::rom::flags", B);
+  Kokkos::View<int*, MemorySpace> step_failures("mpmrom::rom::step_failures", B);
+  Kokkos::View<int*, MemorySpace> fallbacks("mpmrom::rom::fallbacks", B);
+  const int max_failed_inversions = int(std::floor(settings.max_failed_inversions * K));
   Vector max_condition("mpmrom::rom::max_condition", B);
   Kokkos::View<int*, MemorySpace> regularized("mpmrom::rom::regularized", B);
 
   rom::ProjectionGuard guard;
   guard.max_condition = real_t(settings.max_condition > 0 ? settings.max_condition : 0.01 / epsilon);
   guard.regularization = real_t(settings.regularization > 0 ? settings.regularization : 100 * epsilon);
+  guard.regularize = settings.regularize;
+  guard.max_latent_speed = real_t(max_latent_speed);
   rom::NewtonSettings newton;
   newton.tolerance = real_t(settings.newton_tolerance * scene.dx);
   newton.max_iterations = settings.newton_iterations;
@@ -190,8 +196,11 @@ void step_batch(const Manifold& manifold, int latent_dim, const ReferencePoints&
             "mpmrom::rom::quadrature_sources",
             Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>>(space, 0, long(B) * K),
             rom::QuadratureSources<Manifold, MemorySpace>{
-                manifold, quadrature_x, quadrature_w, domain, real_t(scene.material.density), newton, xhat, xhatdot,
-                loads, material, t, dt, apic, reference, converged, sources, failures, flags});
+                manifold, quadrature_x, quadrature_w, domain, real_t(scene.material.density), newton,
+                settings.inversion_fallback, xhat, xhatdot, loads, material, t, dt, apic, reference, converged,
+                sources, failures, step_failures, fallbacks, flags});
+        Kokkos::parallel_for("mpmrom::rom::check_inversions", Kokkos::RangePolicy<ExecutionSpace>(space, 0, B),
+                             rom::CheckInversions<MemorySpace>{step_failures, max_failed_inversions, flags});
       }
       Kokkos::parallel_for("mpmrom::rom::gather_nodes",
                            Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>>(space, 0, long(B) * I),
@@ -239,12 +248,14 @@ void step_batch(const Manifold& manifold, int latent_dim, const ReferencePoints&
   const auto hc = download(max_condition);
   auto hr = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), regularized);
   auto hfail = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), failures);
+  auto hfallback = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), fallbacks);
   for (int b = 0; b < B; ++b) {
     RolloutOutcome& outcome = result.outcomes[b];
     outcome.flags = host_flags[b];
     outcome.max_condition = hc[b];
     outcome.regularized_steps = hr(b);
     outcome.inversion_failures = hfail(b);
+    outcome.inversion_fallbacks = hfallback(b);
   }
 }
 

@@ -1,0 +1,201 @@
+// The full-order model's detectors and safeguards (docs/stability.md): each constructed failure stops the run in the
+// step where it happens with the documented cause, never a NaN in the output; the energy budget holds in a stable
+// run; the max_cfl safeguard turns a run past the stability limit into a stable one; a failed simulation keeps its
+// frames in a file that says so.
+#include <gtest/gtest.h>
+
+#include <Kokkos_Core.hpp>
+
+#include <cmath>
+#include <filesystem>
+#include <limits>
+#include <optional>
+#include <string>
+
+#include "fom.hpp"
+#include "hdf5_file.hpp"
+#include "simulate.hpp"
+#include "snapshot.hpp"
+
+#include <unistd.h>
+
+namespace mpmrom::test {
+namespace {
+
+// A spinning block of soft solid, free in space: P-wave speed 11.6 m/s, so the CFL step is 4.3 ms at cfl = 1.
+Scene spinning_block(double cfl, const std::string& extra_time = "") {
+  return parse_scene(R"(
+name = "spinning_block"
+[material]
+model = "fixed_corotated"
+youngs_modulus = 1e5
+poisson_ratio = 0.3
+density = 1000.0
+[[body]]
+shape = "box"
+center = [0.0, 0.0, 0.0]
+size = [0.2, 0.2, 0.2]
+spacing = 0.025
+angular_velocity = [0.0, 0.0, 2.0]
+[grid]
+lo = [-0.5, -0.5, -0.5]
+hi = [0.5, 0.5, 0.5]
+dx = 0.05
+[time]
+end_time = 0.5
+outputs = 5
+cfl = )" + std::to_string(cfl) + "\n" + extra_time,
+                     "spinning_block");
+}
+
+// Runs to the end; returns the failure, if any.
+std::optional<SimulationFailure> run_to_end(FomSolver& solver, const Scene& scene) {
+  try {
+    for (int k = 1; k <= scene.num_outputs; ++k) solver.advance_to(scene.end_time * k / scene.num_outputs);
+  } catch (const SimulationFailure& failure) {
+    return failure;
+  }
+  return std::nullopt;
+}
+
+// Sets one component of one particle's field on the device, as a corrupted state would.
+template <class View>
+void poke_value(const View& view, int p, int i, int j, real_t value) {
+  auto host = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), view);
+  if constexpr (View::rank == 2)
+    host(p, i) = value;
+  else
+    host(p, i, j) = value;
+  Kokkos::deep_copy(view, host);
+}
+
+TEST(FomDetectors, NonFiniteVelocityStopsTheStepItAppearsIn) {
+  const Scene scene = spinning_block(0.3);
+  FomSolver solver(scene);
+  solver.advance_to(0.01);
+  const long steps_before = solver.steps();
+  poke_value(solver.particles().v, 17, 1, 0, std::numeric_limits<real_t>::quiet_NaN());
+  const auto failure = run_to_end(solver, scene);
+  ASSERT_TRUE(failure.has_value());
+  EXPECT_EQ(failure->cause(), FomFailureCause::NotFinite);
+  EXPECT_EQ(failure->step(), steps_before + 1);
+  EXPECT_NE(std::string(failure->what()).find("non-finite"), std::string::npos) << failure->what();
+}
+
+TEST(FomDetectors, InvertedDeformationGradientStopsTheStepItAppearsIn) {
+  const Scene scene = spinning_block(0.3);
+  FomSolver solver(scene);
+  solver.advance_to(0.01);
+  const long steps_before = solver.steps();
+  poke_value(solver.particles().F, 5, 2, 2, real_t(-1));  // F = diag(1, 1, -1): a mirrored point, det F = -1
+  const auto failure = run_to_end(solver, scene);
+  ASSERT_TRUE(failure.has_value());
+  EXPECT_EQ(failure->cause(), FomFailureCause::Inverted);
+  EXPECT_EQ(failure->step(), steps_before + 1);
+  EXPECT_NE(std::string(failure->what()).find("det F <= 0"), std::string::npos) << failure->what();
+}
+
+TEST(FomDetectors, MaterialOutsideTheGridStopsTheRun) {
+  const Scene scene = spinning_block(0.3);
+  FomSolver solver(scene);
+  solver.advance_to(0.01);
+  poke_value(solver.particles().x, 3, 0, 0, real_t(2.0));  // 1.5 m beyond the grid's +x face
+  const auto failure = run_to_end(solver, scene);
+  ASSERT_TRUE(failure.has_value());
+  EXPECT_EQ(failure->cause(), FomFailureCause::LeftGrid);
+  EXPECT_NE(std::string(failure->what()).find("left the grid"), std::string::npos) << failure->what();
+}
+
+// Past the stability limit (cfl 1.5) the energy grows geometrically: the budget check stops the run long before the
+// fields overflow, and the same run with the max_cfl safeguard completes inside its budget.
+TEST(FomDetectors, EnergyBlowUpPastTheStabilityLimitAndTheSubSteppingSafeguard) {
+  const Scene unstable = spinning_block(1.5);
+  FomSolver solver(unstable);
+  const auto failure = run_to_end(solver, unstable);
+  ASSERT_TRUE(failure.has_value());
+  EXPECT_EQ(failure->cause(), FomFailureCause::EnergyBlowUp) << failure->what();
+  EXPECT_NE(std::string(failure->what()).find("exceeds 10"), std::string::npos) << failure->what();
+
+  const Scene guarded = spinning_block(1.5, "max_cfl = 0.5");
+  FomSolver safe(guarded);
+  const auto none = run_to_end(safe, guarded);
+  EXPECT_FALSE(none.has_value()) << none->what();
+  EXPECT_GT(safe.safeguarded_steps(), 0);
+  EXPECT_LE(safe.energy().total(), safe.energy_budget());
+
+  // A fixed dt past the limit is shortened by the safeguard in the same way.
+  const Scene fixed = spinning_block(0.3, "dt = 0.01\nmax_cfl = 0.5");
+  FomSolver fixed_safe(fixed);
+  EXPECT_FALSE(run_to_end(fixed_safe, fixed).has_value());
+  EXPECT_GT(fixed_safe.safeguarded_steps(), 0);
+}
+
+// Free fall: the budget is the work of gravity counted at the updated velocities, sum m g dt . v_{n+1}, which exceeds
+// the kinetic energy gained, m g dt . (v_n + v_{n+1}) / 2, by m g^2 dt^2 / 2 per step: over a time T in N steps of
+// at most dt_max, 0 <= budget - energy <= M g^2 dt_max T / 2 (and the uniform field has no elastic energy).
+TEST(FomEnergyBudget, FreeFallEnergyEqualsTheWorkOfGravityToOneStep) {
+  const Scene scene = parse_scene(R"(
+name = "free_fall"
+gravity = [0.0, 0.0, -9.81]
+[material]
+youngs_modulus = 1e5
+poisson_ratio = 0.3
+density = 1000.0
+[[body]]
+shape = "box"
+center = [0.0, 0.0, 1.5]
+size = [0.2, 0.2, 0.2]
+spacing = 0.025
+[grid]
+lo = [-0.5, -0.5, -0.5]
+hi = [0.5, 0.5, 2.0]
+dx = 0.05
+[time]
+end_time = 0.3
+dt = 0.002
+)",
+                                  "free_fall");
+  FomSolver solver(scene);
+  solver.advance_to(scene.end_time);
+  std::vector<real_t> X, mass, volume;
+  solver.reference(X, mass, volume);
+  double M = 0;
+  for (const real_t m : mass) M += m;
+  const double g = 9.81, T = scene.end_time, energy = solver.energy().total(), budget = solver.energy_budget();
+  const double rounding = 100 * std::numeric_limits<real_t>::epsilon() * budget;
+  EXPECT_GE(budget - energy, -rounding);
+  EXPECT_LE(budget - energy, 0.5 * M * g * g * scene.time_step * T + rounding);
+  EXPECT_NEAR(energy, 0.5 * M * (g * T) * (g * T), 0.5 * M * g * g * scene.time_step * T + rounding);
+}
+
+TEST(SimulateFailure, KeepsTheFramesBeforeTheFailureUnderAFailedName) {
+  const auto dir = std::filesystem::temp_directory_path() / ("mpmrom_test_stability_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const std::string out = (dir / "run.h5").string();
+  const Scene unstable = spinning_block(1.5);
+  try {
+    simulate(unstable, out, P2GStrategy::Atomic);
+    FAIL() << "the run past the stability limit completed";
+  } catch (const SimulationFailure& failure) {
+    EXPECT_EQ(failure.cause(), FomFailureCause::EnergyBlowUp);
+    EXPECT_NE(std::string(failure.what()).find("run.failed.h5"), std::string::npos) << failure.what();
+  }
+  EXPECT_FALSE(std::filesystem::exists(out));  // nothing under the name of a finished run
+  const std::string kept = failed_path_for(out);
+  ASSERT_TRUE(std::filesystem::exists(kept));
+  EXPECT_TRUE(std::filesystem::exists(dir / "run.failed.xmf"));
+  const hdf5::File file = hdf5::File::open(kept);
+  EXPECT_EQ(file.integer_attribute("complete"), 0);
+  EXPECT_NE(file.string_attribute("failure").find("energy"), std::string::npos);
+  // Readers refuse it as a finished run, naming the failure.
+  try {
+    read_snapshot(kept);
+    FAIL() << "a failed run's file was read as a finished run";
+  } catch (const std::runtime_error& error) {
+    EXPECT_NE(std::string(error.what()).find("a run that failed"), std::string::npos) << error.what();
+  }
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace mpmrom::test
