@@ -18,6 +18,7 @@
 #include "runtime.hpp"
 #include "sampling.hpp"
 #include "simulate.hpp"
+#include "stability.hpp"
 #include "trainer.hpp"
 
 namespace {
@@ -283,6 +284,40 @@ int main(int argc, char** argv) {
   evaluate->add_flag("--json", evaluate_json, "Print the errors as one JSON object on stdout");
   evaluate->footer("Example: mpmrom evaluate rom.h5 data/poke --json");
 
+  mpmrom::StabilitySettings stability_settings;
+  std::string stability_selection = "greedy";
+  auto* stability = app.add_subcommand(
+      "stability", "Stability map: where the FOM and each ROM configuration break (time step, horizon, extrapolation, "
+                   "samples, material, load)");
+  stability->add_option("scene", stability_settings.scene_path, "Scene file (TOML) of the sweep the model learned")
+      ->required()
+      ->check(CLI::ExistingFile);
+  stability->add_option("--model", stability_settings.model_path, "Model file (from mpmrom train)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  stability->add_option("--data", stability_settings.data_dir, "The sweep the model was trained on (greedy samples)")
+      ->check(CLI::ExistingDirectory);
+  stability->add_option("--out", stability_settings.out_dir, "Output directory (stability.md, .json, charts)")
+      ->required();
+  stability->add_option("--samples", stability_settings.samples, "Sample points of the hyper-reduced configurations")
+      ->capture_default_str();
+  stability->add_option("--selection", stability_selection, "Sample selection: region, random or greedy")
+      ->capture_default_str();
+  stability->add_option("--threshold", stability_settings.threshold,
+                        "Position error (fraction) above which a run counts as inaccurate")
+      ->capture_default_str();
+  stability->add_option("--fom-cfl", stability_settings.fom_cfl, "FOM time steps (CFL numbers)")->capture_default_str();
+  stability->add_option("--rom-cfl", stability_settings.rom_cfl, "ROM time steps (CFL numbers)")->capture_default_str();
+  stability->add_option("--extrapolation", stability_settings.extrapolation,
+                        "Distances beyond the training range, in widths (-0.5: its centre)")
+      ->capture_default_str();
+  stability->add_option("--horizons", stability_settings.horizons, "Horizons, in training windows")
+      ->capture_default_str();
+  stability->add_option("--load-factors", stability_settings.load_factors,
+                        "Factors on the first design parameter for Algorithm 2's inversion")
+      ->capture_default_str();
+  stability->footer("Example: mpmrom stability scenes/poke_cylinder.toml --model model.h5 --data data/poke --out map");
+
   mpmrom::PipelineSettings pipeline_settings;
   std::vector<std::string> pipeline_networks, pipeline_methods;
   auto* pipeline = app.add_subcommand(
@@ -526,6 +561,22 @@ int main(int argc, char** argv) {
         std::cout << record.dump() << "\n";
       }
       if (failed > 0) return 3;
+    }
+    if (*stability) {
+      stability_settings.selection = mpmrom::sample_selection_from_string(stability_selection);
+      if (stability_settings.selection == mpmrom::SampleSelection::Greedy && stability_settings.data_dir.empty())
+        throw std::invalid_argument("--selection greedy needs --data (the sweep the model was trained on)");
+      std::size_t done = 0;
+      const auto cases = mpmrom::run_stability(stability_settings, [&](const mpmrom::StabilityCase& c) {
+        if (quiet) return;
+        std::fprintf(stderr, "mpmrom stability: %3zu %-9s %-18s cfl %-4g h %-3gx d %-5g load %-3g %-8s %-12s %s%.3g %% (%.2f s)%s%s\n",
+                     ++done, c.study.c_str(), c.config.c_str(), c.cfl, c.horizon, c.extrapolation, c.load_factor,
+                     c.material.empty() ? "scene" : c.material.c_str(), c.status.c_str(), "", 100 * c.position_error,
+                     c.seconds, c.cause.empty() ? "" : ": ", c.cause.substr(0, 90).c_str());
+      });
+      if (!quiet)
+        std::fprintf(stderr, "mpmrom stability: %zu cases; wrote %s/stability.md, stability.json and the charts\n",
+                     cases.size(), stability_settings.out_dir.c_str());
     }
     if (*pipeline) {
       for (const auto& text : pipeline_networks) pipeline_settings.networks.push_back(mpmrom::NetworkShape::parse(text));

@@ -33,6 +33,8 @@ std::string script(const Chart& chart, const std::string& terminal, const std::s
      << quoted(chart.y_label) << "\n";
   if (chart.log_x) gp << "set logscale x\n";
   if (chart.log_y) gp << "set logscale y\n";
+  if (!chart.color_label.empty()) gp << "set cblabel " << quoted(chart.color_label) << "\nset palette rgb 33,13,10\n";
+  if (chart.log_color) gp << "set logscale cb\n";
   // noenhanced: names like position_error are text, not subscripts
   gp << "set termoption noenhanced\nset grid\nset key below\nset pointsize 1.2\n";
   for (std::size_t s = 0; s < chart.series.size(); ++s) {
@@ -42,8 +44,12 @@ std::string script(const Chart& chart, const std::string& terminal, const std::s
       // points that a logarithmic axis cannot show (zero or negative) are left out rather than breaking the plot
       if ((chart.log_x && !(series.x[i] > 0)) || (chart.log_y && !(series.y[i] > 0))) continue;
       if (!std::isfinite(series.x[i]) || !std::isfinite(series.y[i])) continue;
+      if (i < series.color.size() && !(std::isfinite(series.color[i]) && (!chart.log_color || series.color[i] > 0)))
+        continue;
       gp << number(series.x[i]) << " " << number(series.y[i]) << " "
-         << quoted(i < series.labels.size() ? series.labels[i] : "") << "\n";
+         << quoted(i < series.labels.size() ? series.labels[i] : "");
+      if (!series.color.empty()) gp << " " << number(series.color[i]);
+      gp << "\n";
     }
     gp << "EOD\n";
   }
@@ -51,8 +57,11 @@ std::string script(const Chart& chart, const std::string& terminal, const std::s
   for (std::size_t s = 0; s < chart.series.size(); ++s) {
     const auto& series = chart.series[s];
     if (s) gp << ", \\\n     ";
-    gp << "$s" << s << " using 1:2 with " << series.style << " linestyle " << s + 1 << " title "
-       << quoted(series.title);
+    if (series.color.empty())
+      gp << "$s" << s << " using 1:2 with " << series.style << " linestyle " << s + 1;
+    else
+      gp << "$s" << s << " using 1:2:4 with " << series.style << " lc palette";
+    gp << " title " << quoted(series.title);
     if (!series.labels.empty())
       gp << ", $s" << s << " using 1:2:3 with labels offset 0.8,0.6 left font \",8\" notitle";
   }

@@ -12,11 +12,14 @@ struct ChartSeries {
   std::vector<double> x, y;
   std::string style = "points";      // a gnuplot style: points, linespoints, lines, steps
   std::vector<std::string> labels;   // optional: one text label per point, drawn beside it
+  std::vector<double> color;         // optional: one value per point, drawn through the chart's colour scale
 };
 
 struct Chart {
   std::string title, x_label, y_label;
   bool log_x = false, log_y = false;
+  std::string color_label;  // the colour scale's title, for series with color values
+  bool log_color = false;
   std::vector<ChartSeries> series;
 };
 

@@ -80,12 +80,25 @@ std::vector<std::size_t> nearest_points(const std::vector<double>& points, const
   return nearest;
 }
 
+ErrorAccumulator merged(const std::vector<ErrorAccumulator>& parts) {
+  ErrorAccumulator all;
+  for (const auto& part : parts) all.merge(part);
+  return all;
+}
+
 }  // namespace
 
 ErrorAccumulator resolution_errors(const Snapshot& reference, const Snapshot& run) {
   if (run.num_frames != reference.num_frames)
     throw std::runtime_error("the run has " + std::to_string(run.num_frames) + " output times, its reference " +
                              std::to_string(reference.num_frames));
+  return merged(resolution_errors_by_frame(reference, run));
+}
+
+std::vector<ErrorAccumulator> resolution_errors_by_frame(const Snapshot& reference, const Snapshot& run) {
+  if (run.num_frames > reference.num_frames)
+    throw std::runtime_error("the run has " + std::to_string(run.num_frames) + " output times, more than its "
+                             "reference's " + std::to_string(reference.num_frames));
   for (std::size_t f = 0; f < run.num_frames; ++f)
     if (std::fabs(run.time[f] - reference.time[f]) > 1e-9 * std::max(1.0, std::fabs(reference.time[f])))
       throw std::runtime_error("output time " + std::to_string(f) + " differs from the reference's");
@@ -95,8 +108,8 @@ ErrorAccumulator resolution_errors(const Snapshot& reference, const Snapshot& ru
   double centroid[3] = {0, 0, 0};
   for (std::size_t p = 0; p < P; ++p)
     for (int d = 0; d < 3; ++d) centroid[d] += reference.X[3 * p + d] / double(P);
-  ErrorAccumulator errors;
-  for (std::size_t f = 0; f < reference.num_frames; ++f)
+  std::vector<ErrorAccumulator> errors(run.num_frames);
+  for (std::size_t f = 0; f < run.num_frames; ++f)
     for (std::size_t p = 0; p < P; ++p) {
       const std::size_t q = nearest[p], i = f * P + p, j = f * Q + q;
       const double* F = &run.F[9 * j];
@@ -108,24 +121,31 @@ ErrorAccumulator resolution_errors(const Snapshot& reference, const Snapshot& ru
         x[a] = run.x[3 * j + a] + dx[a];
         v[a] = run.v[3 * j + a] + C[3 * a] * dx[0] + C[3 * a + 1] * dx[1] + C[3 * a + 2] * dx[2];
       }
-      errors.add(centroid, &reference.X[3 * p], &reference.x[3 * i], x, &reference.v[3 * i], v, &reference.F[9 * i], F);
+      errors[f].add(centroid, &reference.X[3 * p], &reference.x[3 * i], x, &reference.v[3 * i], v, &reference.F[9 * i],
+                    F);
     }
   return errors;
 }
 
 ErrorAccumulator rollout_errors(const Model& model, const Snapshot& reference, const std::vector<double>& xhat,
                                 const std::vector<double>& xhatdot) {
+  return merged(rollout_errors_by_frame(model, reference, xhat, xhatdot));
+}
+
+std::vector<ErrorAccumulator> rollout_errors_by_frame(const Model& model, const Snapshot& reference,
+                                                      const std::vector<double>& xhat,
+                                                      const std::vector<double>& xhatdot) {
   const std::size_t P = reference.num_points, frames = xhat.size() / std::size_t(model.latent_dim);
   if (frames > reference.num_frames) throw std::invalid_argument("the rollout has more frames than its reference");
   const DecodedFields fields = decode(model, reference.X, xhat, xhatdot);
   double centroid[3] = {0, 0, 0};
   for (std::size_t p = 0; p < P; ++p)
     for (int d = 0; d < 3; ++d) centroid[d] += reference.X[3 * p + d] / double(P);
-  ErrorAccumulator errors;
+  std::vector<ErrorAccumulator> errors(frames);
   for (std::size_t f = 0; f < frames; ++f)
     for (std::size_t p = 0; p < P; ++p) {
       const std::size_t i = f * P + p;
-      errors.add(centroid, &reference.X[3 * p], &reference.x[3 * i], &fields.x[3 * i], &reference.v[3 * i],
+      errors[f].add(centroid, &reference.X[3 * p], &reference.x[3 * i], &fields.x[3 * i], &reference.v[3 * i],
                  &fields.v[3 * i], &reference.F[9 * i], &fields.F[9 * i]);
     }
   return errors;

@@ -25,6 +25,13 @@ ErrorAccumulator rollout_errors(const Model& model, const Snapshot& reference, c
 // v = v_p + C_p F_p (X_q - X_p) (C: APIC's velocity gradient), F = F_p; exact for affine motion, O(h^2) otherwise.
 ErrorAccumulator resolution_errors(const Snapshot& reference, const Snapshot& run);
 
+// The same two comparisons frame by frame (one accumulator per frame of the rollout or run, which may be shorter
+// than its reference): how the error grows over time.
+std::vector<ErrorAccumulator> rollout_errors_by_frame(const Model& model, const Snapshot& reference,
+                                                      const std::vector<double>& xhat,
+                                                      const std::vector<double>& xhatdot);
+std::vector<ErrorAccumulator> resolution_errors_by_frame(const Snapshot& reference, const Snapshot& run);
+
 // The whole evaluation as SPEC's JSON: aggregate metrics over all matched rollouts under the metric names, "train"
 // and "test" aggregates, and one entry per rollout under "runs". Throws std::runtime_error when no rollout matches a
 // reference, or a matched reference has other output times or points.

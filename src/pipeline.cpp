@@ -588,7 +588,7 @@ std::vector<std::string> draw_charts(const std::string& dir, const json& report)
     }
     for (auto& [cfl, series] : fom_by_cfl) chart.series.push_back(series);
     for (auto& [method, series] : rom_by_method) chart.series.push_back(series);
-    ChartSeries front{"ROM Pareto front", {}, {}, "linespoints", {}};
+    ChartSeries front{"ROM Pareto front", {}, {}, "linespoints", {}, {}};
     for (std::size_t i : pareto_front(cost, error)) {
       front.x.push_back(cost[i]);
       front.y.push_back(100 * error[i]);
@@ -604,7 +604,7 @@ std::vector<std::string> draw_charts(const std::string& dir, const json& report)
     chart.x_label = "material points (FOM particles; ROM: the model's points)";
     chart.y_label = "wall seconds per step (ROM: per rollout-step)";
     chart.log_x = chart.log_y = true;
-    ChartSeries fom{"FOM, scene's cfl", {}, {}, "linespoints", {}}, rom{"ROM configurations", {}, {}, "points", {}};
+    ChartSeries fom{"FOM, scene's cfl", {}, {}, "linespoints", {}, {}}, rom{"ROM configurations", {}, {}, "points", {}, {}};
     for (const auto& level : ladder)
       if (level["cfl"] == ladder[0]["cfl"] || level["reference"].get<bool>()) {
         fom.x.push_back(level["particles"]);
@@ -618,7 +618,7 @@ std::vector<std::string> draw_charts(const std::string& dir, const json& report)
     std::vector<std::size_t> order(fom.x.size());
     for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
     std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return fom.x[a] < fom.x[b]; });
-    ChartSeries sorted{fom.title, {}, {}, fom.style, {}};
+    ChartSeries sorted{fom.title, {}, {}, fom.style, {}, {}};
     for (std::size_t i : order) {
       sorted.x.push_back(fom.x[i]);
       sorted.y.push_back(fom.y[i]);
@@ -634,7 +634,7 @@ std::vector<std::string> draw_charts(const std::string& dir, const json& report)
     chart.y_label = "rollout-steps per second";
     chart.log_x = chart.log_y = true;
     ChartSeries series{report["device"].get<std::string>() + " (" + report["backend"].get<std::string>() + ")", {}, {},
-                       "linespoints", {}};
+                       "linespoints", {}, {}};
     for (const auto& p : report["batch"]["points"]) {
       series.x.push_back(p["batch"]);
       series.y.push_back(p["rom_rollout_steps_per_s"]);
@@ -649,7 +649,7 @@ std::vector<std::string> draw_charts(const std::string& dir, const json& report)
     chart.y_label = "minibatch loss";
     chart.log_y = true;
     for (const auto& [name, model] : report["models"].items()) {
-      ChartSeries series{name, {}, {}, "lines", {}};
+      ChartSeries series{name, {}, {}, "lines", {}, {}};
       for (const auto& h : model["loss_history"]) {
         series.x.push_back(h["epoch"]);
         series.y.push_back(h["loss"]);

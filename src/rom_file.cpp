@@ -80,23 +80,27 @@ void save_rom(const std::string& path, const RomFile& rom) {
     write_dataset(latent, "xhatdot", hdf5::Element::float64, res.xhatdot, {B, frames, r});
 
     hdf5::Group outcome = file.create_group("outcome");
-    std::vector<std::int64_t> flags, completed, regularized, failures;
+    std::vector<std::int64_t> flags, completed, regularized, failures, fallbacks;
     std::vector<double> condition, stopped;
-    std::vector<std::string> messages;
+    std::vector<std::string> messages, warnings;
     for (const auto& o : res.outcomes) {
       flags.push_back(o.flags);
       completed.push_back(o.frames_completed);
       regularized.push_back(o.regularized_steps);
       failures.push_back(o.inversion_failures);
+      fallbacks.push_back(o.inversion_fallbacks);
+      warnings.push_back(o.warning);
       condition.push_back(o.max_condition);
       stopped.push_back(o.stopped_at);
       messages.push_back(o.message);
     }
     outcome.set_string_list_attribute("messages", messages);
+    outcome.set_string_list_attribute("warnings", warnings);
     write_dataset(outcome, "flags", hdf5::Element::int64, flags, {B});
     write_dataset(outcome, "frames_completed", hdf5::Element::int64, completed, {B});
     write_dataset(outcome, "regularized_steps", hdf5::Element::int64, regularized, {B});
     write_dataset(outcome, "inversion_failures", hdf5::Element::int64, failures, {B});
+    write_dataset(outcome, "inversion_fallbacks", hdf5::Element::int64, fallbacks, {B});
     write_dataset(outcome, "max_condition", hdf5::Element::float64, condition, {B});
     write_dataset(outcome, "stopped_at", hdf5::Element::float64, stopped, {B});
 
@@ -175,6 +179,13 @@ RomFile load_rom(const std::string& path) {
   const auto failures = impl::read_checked(path, outcome.dataset("inversion_failures"), {B}, "(one per rollout)");
   const auto condition = impl::read_checked(path, outcome.dataset("max_condition"), {B}, "(one per rollout)");
   const auto stopped = impl::read_checked(path, outcome.dataset("stopped_at"), {B}, "(one per rollout)");
+  // Files written before the stability safeguards have no warnings or fallbacks: none to report.
+  std::vector<std::string> warnings(B);
+  if (outcome.has_attribute("warnings")) warnings = outcome.string_list_attribute("warnings");
+  if (warnings.size() != B) bad(path, "/outcome warnings: one per rollout expected");
+  std::vector<double> fallbacks(B, 0.0);
+  if (outcome.has_child("inversion_fallbacks"))
+    fallbacks = impl::read_checked(path, outcome.dataset("inversion_fallbacks"), {B}, "(one per rollout)");
   for (std::size_t b = 0; b < B; ++b) {
     RolloutOutcome o;
     o.flags = int(flags[b]);
@@ -186,6 +197,8 @@ RomFile load_rom(const std::string& path) {
     o.max_condition = condition[b];
     o.stopped_at = stopped[b];
     o.message = messages[b];
+    o.warning = warnings[b];
+    o.inversion_fallbacks = long(fallbacks[b]);
     res.outcomes.push_back(o);
   }
   const hdf5::Group samples = file.group("samples");

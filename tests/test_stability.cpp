@@ -16,6 +16,7 @@
 #include "hdf5_file.hpp"
 #include "simulate.hpp"
 #include "snapshot.hpp"
+#include "stability.hpp"
 
 #include <unistd.h>
 
@@ -195,6 +196,14 @@ TEST(SimulateFailure, KeepsTheFramesBeforeTheFailureUnderAFailedName) {
     EXPECT_NE(std::string(error.what()).find("a run that failed"), std::string::npos) << error.what();
   }
   std::filesystem::remove_all(dir);
+}
+
+// The map's three verdicts: a detector outranks any error; a run that finished is judged by its error alone.
+TEST(StabilityMap, ClassifiesStoppedInaccurateAndStableRuns) {
+  EXPECT_EQ(classify(true, 0.001, 0.05), "unstable");
+  EXPECT_EQ(classify(false, 0.06, 0.05), "inaccurate");
+  EXPECT_EQ(classify(false, std::nan(""), 0.05), "inaccurate");
+  EXPECT_EQ(classify(false, 0.05, 0.05), "stable");
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 
 #include <Kokkos_Core.hpp>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <functional>
@@ -176,8 +177,12 @@ void step_batch(const Manifold& manifold, int latent_dim, const ReferencePoints&
   for (int frame = 1; frame < frames; ++frame) {
     const double target = scene.end_time * frame / scene.num_outputs;
     const double dt_max = cfl * scene.dx / (double(wave_speed) + double(max_speed));
-    const long substeps = std::max(1L, long(std::ceil((target - time) / dt_max - 1e-9)));
-    const double dt_interval = (target - time) / double(substeps);
+    // Once every rollout has stopped there is nothing left to advance: the remaining frames repeat the last state.
+    const bool all_stopped = std::all_of(host_flags.begin(), host_flags.end(),
+                                         [](int f) { return (f & rom::fatal_flags) != 0; });
+    const long substeps =
+        all_stopped ? 0 : std::max(1L, long(std::ceil((target - time) / dt_max - 1e-9)));
+    const double dt_interval = substeps > 0 ? (target - time) / double(substeps) : 0.0;
     for (long sub = 0; sub < substeps; ++sub) {
       const real_t t = real_t(time), dt = real_t(dt_interval);
       if (point_method) {
@@ -238,6 +243,7 @@ void step_batch(const Manifold& manifold, int latent_dim, const ReferencePoints&
       time = sub + 1 == substeps ? target : time + dt_interval;
       ++result.steps;
     }
+    if (all_stopped) time = target;
     check_flags(time);
     result.times.push_back(target);
     record(frame);
