@@ -57,10 +57,14 @@ std::string script(const Chart& chart, const std::string& terminal, const std::s
   for (std::size_t s = 0; s < chart.series.size(); ++s) {
     const auto& series = chart.series[s];
     if (s) gp << ", \\\n     ";
+    // gnuplot wants the line style before any option that refines it (pt, ps): "points pt 5" -> "points ls 1 pt 5"
+    const std::size_t space = series.style.find(' ');
+    const std::string kind = series.style.substr(0, space);
+    const std::string options = space == std::string::npos ? "" : series.style.substr(space);
     if (series.color.empty())
-      gp << "$s" << s << " using 1:2 with " << series.style << " linestyle " << s + 1;
+      gp << "$s" << s << " using 1:2 with " << kind << " linestyle " << s + 1 << options;
     else
-      gp << "$s" << s << " using 1:2:4 with " << series.style << " lc palette";
+      gp << "$s" << s << " using 1:2:4 with " << kind << options << " lc palette";
     gp << " title " << quoted(series.title);
     if (!series.labels.empty())
       gp << ", $s" << s << " using 1:2:3 with labels offset 0.8,0.6 left font \",8\" notitle";

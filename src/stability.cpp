@@ -306,7 +306,7 @@ void write_report(const StabilitySettings& settings, const std::vector<Stability
                 "extrapolation beyond the training range (widths; -0.5 = centre)", true, false,
                 "position error (fraction)", true, {}};
     ChartSeries ok{"stable / inaccurate: colour = position error", {}, {}, "points pt 5 ps 4", {}, {}};
-    ChartSeries bad{"unstable (detector)", {}, {}, "points pt 2 ps 3 lc rgb \"black\"", {}, {}};
+    ChartSeries bad{"unstable (detector)", {}, {}, "points pt 2 ps 3", {}, {}};
     for (const StabilityCase* c : list) {
       const bool broken = c->status == "unstable" || c->status == "no reference";
       ChartSeries& s = broken ? bad : ok;
