@@ -389,6 +389,22 @@ std::vector<StabilityCase> run_stability(const StabilitySettings& settings,
     return rom;
   };
 
+  // On one scene variant: the FOM at CFL 1 (its error against the reference at the scene's cfl is the
+  // time-integration error alone), then every ROM configuration at the scene's cfl.
+  const auto fom_and_roms = [&](StabilityCase c, const std::string& path, const std::string& fom_path) {
+    c.method = "fom";
+    c.config = "FOM cfl 1.0";
+    c.cfl = 1.0;
+    study.fom_case(c, fom_path, path);
+    for (const auto& config : rom_configs(settings.samples)) {
+      c.method = to_string(config.method);
+      c.samples = config.samples;
+      c.config = config.label;
+      c.cfl = base.cfl;
+      study.rom_case(c, path, rom_settings(config, 0));
+    }
+  };
+
   // Time step x extrapolation.
   for (const double d : settings.extrapolation) {
     const std::vector<double> values = study.values_at(d);
@@ -427,21 +443,9 @@ std::vector<StabilityCase> run_stability(const StabilitySettings& settings,
     c.study = "horizon";
     c.horizon = horizon;
     c.values = centre;
-    c.method = "fom";
-    c.config = "FOM cfl 1.0";  // against the reference at the scene's cfl: the time-integration error alone
-    c.cfl = 1.0;
-    study.fom_case(c, study.variant("horizon_" + number(horizon) + "_cfl_1", [&] {
-      auto o = study.horizon_overrides(horizon);
-      o.push_back("time.cfl=1");
-      return o;
-    }()), path);
-    for (const auto& config : rom_configs(settings.samples)) {
-      c.method = to_string(config.method);
-      c.samples = config.samples;
-      c.config = config.label;
-      c.cfl = base.cfl;
-      study.rom_case(c, path, rom_settings(config, 0));
-    }
+    auto at_limit = study.horizon_overrides(horizon);
+    at_limit.push_back("time.cfl=1");
+    fom_and_roms(c, path, study.variant("horizon_" + number(horizon) + "_cfl_1", at_limit));
   }
   // Sample points, from r / 3 (under-determined: fewer equations than unknowns) to all.
   const int r = study.model().latent_dim;
@@ -472,17 +476,7 @@ std::vector<StabilityCase> run_stability(const StabilitySettings& settings,
     c.study = "material";
     c.material = label;
     c.values = centre;
-    c.method = "fom";
-    c.config = "FOM cfl 1.0";
-    c.cfl = 1.0;
-    study.fom_case(c, study.variant(file_label("material " + label + " cfl 1"), {override_text, "time.cfl=1"}), path);
-    for (const auto& config : rom_configs(settings.samples)) {
-      c.method = to_string(config.method);
-      c.samples = config.samples;
-      c.config = config.label;
-      c.cfl = base.cfl;
-      study.rom_case(c, path, rom_settings(config, 0));
-    }
+    fom_and_roms(c, path, study.variant(file_label("material " + label + " cfl 1"), {override_text, "time.cfl=1"}));
   }
   // Load: the first design parameter scaled up, for Algorithm 2's inversion under large deformation.
   for (const double factor : settings.load_factors)

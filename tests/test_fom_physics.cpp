@@ -1,6 +1,7 @@
 // Whole-solver validation against known answers: free fall, rigid rotation, axial vibration of a bar, and two
 // colliding spheres. These run the FomSolver on the build's default execution space.
 #include <cmath>
+#include <limits>
 #include <vector>
 
 #include "backends.hpp"
@@ -117,6 +118,24 @@ dx = 0.05
 end_time = 0.25
 cfl = 0.3
 )";
+
+// Free fall: the budget is the work of gravity counted at the updated velocities, sum m g dt . v_{n+1}, which exceeds
+// the kinetic energy gained, m g dt . (v_n + v_{n+1}) / 2, by m g^2 dt^2 / 2 per step: over a time T in N steps of
+// at most dt_max, 0 <= budget - energy <= M g^2 dt_max T / 2 (and the uniform field has no elastic energy).
+TEST(FomPhysics, FreeFallEnergyEqualsTheWorkOfGravityToOneStep) {
+  const Scene scene = override_scene(parse_scene(kFreeFall, "free_fall"), {"time.dt=0.002"});
+  FomSolver solver(scene);
+  solver.advance_to(scene.end_time);
+  std::vector<real_t> X, mass, volume;
+  solver.reference(X, mass, volume);
+  double M = 0;
+  for (const real_t m : mass) M += m;
+  const double g = 9.81, T = scene.end_time, energy = solver.energy().total(), budget = solver.energy_budget();
+  const double rounding = 100 * std::numeric_limits<real_t>::epsilon() * budget;
+  EXPECT_GE(budget - energy, -rounding);
+  EXPECT_LE(budget - energy, 0.5 * M * g * g * scene.time_step * T + rounding);
+  EXPECT_NEAR(energy, 0.5 * M * (g * T) * (g * T), 0.5 * M * g * g * scene.time_step * T + rounding);
+}
 
 TEST(FomPhysics, RigidRotationKeepsFOrthogonalAndStressFree) {
   const Scene scene = parse_scene(kSpinningSphere, "spinning_sphere");
