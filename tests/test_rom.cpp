@@ -480,6 +480,23 @@ TEST(RomDetectors, IllConditionedProjectionStopsWhenRegularisationIsOff) {
   EXPECT_GT(on.outcomes[0].regularized_steps, 0);
 }
 
+// A node set built from the first configuration only, with no margin, misses the stencils the translating box
+// reaches later (it moves 0.48 cells in x over the run): the first sample to cross a half-cell boundary stops it.
+TEST(RomDetectors, SamplePointLeavingTheNodeSetStops) {
+  const Scene scene = affine_scene({0, 0, 0}, {0, 0, 0});
+  const Motion run = full_order_motion(scene);
+  Motion first_frame_only = run;
+  first_frame_only.positions.resize(1);
+  RomSettings tight;
+  tight.envelope_margin = 0;
+  for (const RomMethod method : {RomMethod::MaterialPoint, RomMethod::SampleNode}) {
+    expect_stopped_by(affine_rollouts(scene, first_frame_only, method, 16, 1, tight), rom::flag_left_node_set,
+                      "left the precomputed node set");
+    // The whole motion's node set keeps the same rollout going to the end.
+    EXPECT_EQ(affine_rollouts(scene, run, method, 16, 1, tight).outcomes[0].flags & rom::fatal_flags, 0);
+  }
+}
+
 TEST(RomDetectors, FailedInversionsAboveTheLimitStopAlgorithm2) {
   const Scene scene = affine_scene({0, 0, -9.81}, {0, 0, 0});
   const Motion run = full_order_motion(scene);
