@@ -32,6 +32,9 @@ nlohmann::json to_json(const mpmrom::RuntimeInfo& info) {
 
 const std::map<std::string, mpmrom::P2GStrategy> kP2GStrategies{{"atomic", mpmrom::P2GStrategy::Atomic},
                                                                    {"scatter", mpmrom::P2GStrategy::ScatterView}};
+const char* const kP2GHelp =
+    "Particle-to-grid accumulation: scatter (per-thread grid copies; bitwise reproducible; default on CPUs) or atomic "
+    "(default on GPUs)";
 
 // One progress line per tenth of a run (every frame on a terminal), with the rate and the time left.
 void report_progress(const mpmrom::SimulationProgress& p, bool quiet) {
@@ -150,22 +153,25 @@ int main(int argc, char** argv) {
 
   std::string scene_path, out_path;
   std::vector<std::string> overrides;
-  mpmrom::P2GStrategy p2g = mpmrom::P2GStrategy::Atomic;
+  mpmrom::P2GStrategy p2g = mpmrom::default_p2g_strategy();
   auto* simulate = app.add_subcommand("simulate", "Run the full-order MPM model on a scene; write one snapshot file");
   simulate->add_option("scene", scene_path, "Scene file (TOML)")->required()->check(CLI::ExistingFile);
   simulate->add_option("--out", out_path, "Snapshot file to write (HDF5; an XDMF side file goes next to it)")
       ->required();
   simulate->add_option("--set", overrides, "Override: parameter=value, or a scene entry like material.density=500");
-  simulate->add_option("--p2g", p2g, "Particle-to-grid accumulation: atomic or scatter")
+  simulate->add_option("--p2g", p2g, kP2GHelp)
       ->transform(CLI::CheckedTransformer(kP2GStrategies, CLI::ignore_case));
   simulate->footer("Example: mpmrom simulate scenes/poke_cylinder.toml --out poke.h5 --set rho=1.2");
 
   std::string sweep_dir;
+  bool sweep_resume = false;
   auto* sweep = app.add_subcommand("sweep", "Run the scene's parameter design: DIR/runs/*.h5 and DIR/design.csv");
   sweep->add_option("scene", scene_path, "Scene file (TOML) with a [design] table")->required()->check(CLI::ExistingFile);
   sweep->add_option("--out", sweep_dir, "Output directory")->required();
-  sweep->add_option("--p2g", p2g, "Particle-to-grid accumulation: atomic or scatter")
+  sweep->add_option("--p2g", p2g, kP2GHelp)
       ->transform(CLI::CheckedTransformer(kP2GStrategies, CLI::ignore_case));
+  sweep->add_flag("--resume", sweep_resume,
+                  "Keep the runs a stopped sweep finished (same scene and parameters) and simulate the rest");
   sweep->footer("Example: mpmrom sweep scenes/poke_cylinder.toml --out data/poke");
 
   std::vector<std::string> train_inputs;
@@ -365,7 +371,7 @@ int main(int argc, char** argv) {
   bench_fom->add_option("--set", overrides, "Override: parameter=value, or a scene entry like grid.dx=0.02");
   bench_fom->add_option("--steps", bench_steps, "Timed steps")->check(CLI::PositiveNumber);
   bench_fom->add_option("--warmup", bench_warmup, "Untimed steps first")->check(CLI::NonNegativeNumber);
-  bench_fom->add_option("--p2g", p2g, "Particle-to-grid accumulation: atomic or scatter")
+  bench_fom->add_option("--p2g", p2g, kP2GHelp)
       ->transform(CLI::CheckedTransformer(kP2GStrategies, CLI::ignore_case));
   bench_fom->add_flag("--json", bench_json, "One JSON record on stdout");
   bench_fom->footer("Example: mpmrom bench fom scenes/cylinder_1e6.toml --p2g scatter --json");
@@ -401,12 +407,13 @@ int main(int argc, char** argv) {
     }
     if (*sweep) {
       mpmrom::sweep(scene_path, sweep_dir, p2g,
-                    [&](std::size_t run, std::size_t num_runs, const mpmrom::SweepRun& r) {
+                    [&](std::size_t run, std::size_t num_runs, const mpmrom::SweepRun& r, bool reused) {
                       if (!quiet)
                         std::cerr << "mpmrom sweep: run " << run + 1 << "/" << num_runs << " (" << r.file << ", "
-                                  << (r.test ? "test" : "train") << ")\n";
+                                  << (r.test ? "test" : "train") << (reused ? ", finished before: kept" : "")
+                                  << ")\n";
                     },
-                    progress);
+                    progress, sweep_resume);
     }
     const auto pipeline_log = [quiet](const std::string& text) {
       if (!quiet) std::cerr << "mpmrom: " << text << "\n";
@@ -495,6 +502,7 @@ int main(int argc, char** argv) {
       file.settings = rom_settings.to_json();
       file.hyper_reduction = reduction.summary();
       file.samples = reduction.samples;
+      file.sets = reduction;
       const double rollout_steps = double(result.steps) * double(cases.size());
       file.timing = {{"steps", result.steps},
                      {"rollouts", cases.size()},

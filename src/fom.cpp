@@ -57,6 +57,11 @@ ElasticMaterial<real_t> material_for_scene(const Scene& scene) {
                                   static_cast<real_t>(scene.material.poisson_ratio));
 }
 
+P2GStrategy default_p2g_strategy() {
+  return Kokkos::SpaceAccessibility<Kokkos::HostSpace, FomSolver::MemorySpace>::accessible ? P2GStrategy::ScatterView
+                                                                                          : P2GStrategy::Atomic;
+}
+
 FomSolver::FomSolver(const Scene& scene, P2GStrategy strategy)
     : scene_(scene),
       strategy_(strategy),

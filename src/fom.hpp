@@ -43,12 +43,17 @@ class SimulationFailure : public std::runtime_error {
   double time_;
 };
 
+// The P2G accumulation a run gets unless it asks: per-thread grid copies summed in a fixed order on host backends
+// (bitwise reproducible for a given thread count, and the faster one on a few cores; they cost threads x grid
+// memory), atomics on devices.
+P2GStrategy default_p2g_strategy();
+
 class FomSolver {
  public:
   using ExecutionSpace = Kokkos::DefaultExecutionSpace;
   using MemorySpace = ExecutionSpace::memory_space;
 
-  explicit FomSolver(const Scene& scene, P2GStrategy strategy = P2GStrategy::Atomic);
+  explicit FomSolver(const Scene& scene, P2GStrategy strategy = default_p2g_strategy());
 
   double time() const { return time_; }
   long steps() const { return steps_; }

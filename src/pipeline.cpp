@@ -465,7 +465,7 @@ json fom_ladder(const PipelineSettings& settings, const Study& study, std::vecto
       if (level.cfl > 0) run = override_scene(run, {"time.cfl=" + general(level.cfl, 17)});
       const std::string path = (dir / fs::path(study.test_runs().files[t]).filename()).string();
       SimulationProgress last{};
-      simulate(run, path, P2GStrategy::Atomic, [&](const SimulationProgress& p) { last = p; });
+      simulate(run, path, default_p2g_strategy(), [&](const SimulationProgress& p) { last = p; });
       step_seconds += last.step_seconds;
       steps += last.steps;
       simulated += run.end_time;
@@ -775,10 +775,13 @@ json run_pipeline(const PipelineSettings& settings, const PipelineLog& log) {
     say("sweep: reusing " + data_dir);
   } else {
     say("sweep: the scene's design into " + data_dir);
-    sweep(settings.scene_path, data_dir, P2GStrategy::Atomic,
-          [&](std::size_t run, std::size_t runs, const SweepRun&) {
-            say("  run " + std::to_string(run + 1) + "/" + std::to_string(runs));
-          });
+    // A pipeline stopped during its sweep keeps the runs it finished (resume).
+    sweep(
+        settings.scene_path, data_dir, default_p2g_strategy(),
+        [&](std::size_t run, std::size_t runs, const SweepRun&, bool reused) {
+          say("  run " + std::to_string(run + 1) + "/" + std::to_string(runs) + (reused ? " (finished before)" : ""));
+        },
+        {}, true);
   }
   Study study(settings, settings.scene_path, data_dir, (out / "models").string(), log);
   const Scene& scene = study.scene();

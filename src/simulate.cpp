@@ -26,6 +26,21 @@ std::string shortest_round_trip(double value) {
   return text;
 }
 
+// Whether `path` holds this run, finished. Throws if it holds another scene's run: resuming must not mix sweeps.
+bool finished_before(const std::string& path, const Scene& run_scene) {
+  std::error_code error;
+  if (!std::filesystem::exists(path, error)) return false;
+  SnapshotHeader header;
+  try {
+    header = read_snapshot_header(path);
+  } catch (const std::exception&) {
+    return false;  // damaged or incomplete: simulated again and replaced
+  }
+  if (header.scene_text != run_scene.source_text)
+    throw std::runtime_error(path + ": holds a run of another scene or parameters; remove it or sweep without --resume");
+  return true;
+}
+
 }  // namespace
 
 void simulate(const Scene& scene, const std::string& out_path, P2GStrategy strategy,
@@ -82,17 +97,24 @@ std::vector<SweepRun> sweep_runs(const Scene& scene) {
 }
 
 void sweep(const std::string& scene_path, const std::string& out_dir, P2GStrategy strategy,
-           const std::function<void(std::size_t, std::size_t, const SweepRun&)>& on_run,
-           const SimulationCallback& progress) {
+           const SweepRunCallback& on_run, const SimulationCallback& progress, bool resume) {
   const Scene scene = load_scene(scene_path);
   const auto runs = sweep_runs(scene);
   std::error_code error;
   std::filesystem::create_directories(std::filesystem::path(out_dir) / "runs", error);
   if (error) throw std::runtime_error("cannot create " + out_dir + "/runs: " + error.message());
+  if (resume) {
+    // Temporary files of the run a killed sweep was in (AtomicFile's NAME.tmp.PID): never complete, never read.
+    for (const auto& entry : std::filesystem::directory_iterator(std::filesystem::path(out_dir) / "runs", error))
+      if (entry.path().filename().string().find(".tmp.") != std::string::npos)
+        std::filesystem::remove(entry.path(), error);
+  }
   for (std::size_t r = 0; r < runs.size(); ++r) {
-    if (on_run) on_run(r, runs.size(), runs[r]);
     const Scene run_scene = scene_for_run(scene_path, scene.design.names, runs[r].values);
-    simulate(run_scene, (std::filesystem::path(out_dir) / runs[r].file).string(), strategy, progress);
+    const std::string path = (std::filesystem::path(out_dir) / runs[r].file).string();
+    const bool reused = resume && finished_before(path, run_scene);
+    if (on_run) on_run(r, runs.size(), runs[r], reused);
+    if (!reused) simulate(run_scene, path, strategy, progress);
   }
   std::ostringstream csv;
   for (const auto& name : scene.design.names) csv << name << ",";

@@ -35,9 +35,12 @@ struct SweepRun {
 std::vector<SweepRun> sweep_runs(const Scene& scene);
 
 // Simulates every run of the design of the scene at `scene_path` into `out_dir`/runs/, then writes
-// `out_dir`/design.csv (header: the parameter names, split, file). `on_run` is told before each run starts.
+// `out_dir`/design.csv (header: the parameter names, split, file). `on_run` is told before each run starts, and
+// whether the run was reused. resume: a run whose snapshot is already complete and holds this run's scene is kept
+// (each snapshot appears only once its run has finished, so a killed sweep loses at most the run it was in); one of
+// another scene is an error, an unreadable one is simulated again.
+using SweepRunCallback = std::function<void(std::size_t run, std::size_t num_runs, const SweepRun&, bool reused)>;
 void sweep(const std::string& scene_path, const std::string& out_dir, P2GStrategy strategy,
-           const std::function<void(std::size_t run, std::size_t num_runs, const SweepRun&)>& on_run = {},
-           const SimulationCallback& progress = {});
+           const SweepRunCallback& on_run = {}, const SimulationCallback& progress = {}, bool resume = false);
 
 }  // namespace mpmrom

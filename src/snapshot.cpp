@@ -214,15 +214,19 @@ void SnapshotWriter::finish(const std::string& h5_path, const std::string& failu
   xdmf << xdmf_text(std::filesystem::path(h5_path).filename().string(), scene_name_, num_points_, times_);
   xdmf.close();
   if (!xdmf) bad(xdmf_.temporary_path(), std::string("cannot write the XDMF side file: ") + std::strerror(errno));
-  h5_.commit_to(h5_path);
+  // The side file first: a snapshot under its final name always has its XDMF (a resumed sweep keeps such runs).
   xdmf_.commit_to(xdmf_path_for(h5_path));
+  h5_.commit_to(h5_path);
   state_ = State::committed;
 }
 
-Snapshot read_snapshot(const std::string& path, SnapshotFields fields) {
+namespace {
+
+// Opens a snapshot that is complete and of this build's format, else throws naming the problem.
+hdf5::File open_complete_snapshot(const std::string& path) {
   std::error_code error;
   if (!std::filesystem::is_regular_file(path, error)) bad(path, "no such snapshot file");
-  const hdf5::File file = hdf5::File::open(path);
+  hdf5::File file = hdf5::File::open(path);
   if (!file.has_attribute("format")) bad(path, "not an mpmrom snapshot (no 'format' attribute)");
   const std::string format = file.string_attribute("format");
   if (format != snapshot_format) bad(path, "not an mpmrom snapshot (format is '" + format + "')");
@@ -235,15 +239,11 @@ Snapshot read_snapshot(const std::string& path, SnapshotFields fields) {
     if (file.has_attribute("failure")) bad(path, "the frames of a run that failed: " + file.string_attribute("failure"));
     bad(path, "incomplete snapshot (the run did not finish)");
   }
+  return file;
+}
 
-  Snapshot snapshot;
-  snapshot.precision = file.string_attribute("precision");
-  if (snapshot.precision != "float" && snapshot.precision != "double") {
-    bad(path, "precision is '" + snapshot.precision + "', expected 'float' or 'double'");
-  }
-  snapshot.mpmrom_version = file.string_attribute("mpmrom_version");
-  snapshot.git_commit = file.string_attribute("git_commit");
-  SnapshotHeader& header = snapshot.header;
+SnapshotHeader read_header(const hdf5::File& file, const std::string& path) {
+  SnapshotHeader header;
   header.scene_name = file.string_attribute("scene_name");
   header.scene_text = file.string_attribute("scene");
   header.dx = file.double_attribute("dx");
@@ -258,6 +258,25 @@ Snapshot read_snapshot(const std::string& path, SnapshotFields fields) {
     if (!std::isfinite(value)) bad(path, "parameter '" + name + "' is not finite");
     header.parameters.emplace_back(name, value);
   }
+  return header;
+}
+
+}  // namespace
+
+SnapshotHeader read_snapshot_header(const std::string& path) {
+  return read_header(open_complete_snapshot(path), path);
+}
+
+Snapshot read_snapshot(const std::string& path, SnapshotFields fields) {
+  const hdf5::File file = open_complete_snapshot(path);
+  Snapshot snapshot;
+  snapshot.precision = file.string_attribute("precision");
+  if (snapshot.precision != "float" && snapshot.precision != "double") {
+    bad(path, "precision is '" + snapshot.precision + "', expected 'float' or 'double'");
+  }
+  snapshot.mpmrom_version = file.string_attribute("mpmrom_version");
+  snapshot.git_commit = file.string_attribute("git_commit");
+  snapshot.header = read_header(file, path);
 
   const hdf5::Group reference = file.group("reference");
   const auto X_shape = reference.dataset("X").shape();

@@ -91,4 +91,8 @@ enum class SnapshotFields { All, WithoutAffine };
 // naming the file and the problem on any bad file. WithoutAffine checks C's shape but leaves Snapshot::C empty.
 Snapshot read_snapshot(const std::string& path, SnapshotFields fields = SnapshotFields::All);
 
+// The header of a complete snapshot of this build's format (the same checks as read_snapshot, without the arrays):
+// what a resumed sweep compares to tell a finished run from one of another scene.
+SnapshotHeader read_snapshot_header(const std::string& path);
+
 }  // namespace mpmrom

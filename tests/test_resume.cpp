@@ -1,0 +1,174 @@
+// Killed runs (SIGKILL, no chance to clean up) resume with --resume and finish with results bitwise identical to an
+// uninterrupted run, through the command line as users run it; and the same inputs give the same outputs.
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "model.hpp"
+#include "snapshot.hpp"
+
+extern char** environ;
+
+namespace mpmrom::test {
+namespace {
+
+namespace fs = std::filesystem;
+
+// Five runs of a 64-point block pushed by a force: about 0.2 s each on one core, so a kill lands mid-sweep.
+const char* const kScene = R"(
+name = "resume_block"
+[parameters]
+push = 1.0
+[material]
+youngs_modulus = 1.0e4
+poisson_ratio = 0.3
+density = 1000.0
+[[body]]
+shape = "box"
+center = [0.0, 0.0, 0.0]
+size = [0.2, 0.2, 0.2]
+spacing = 0.05
+[grid]
+lo = [-0.5, -0.5, -0.5]
+hi = [0.5, 0.5, 0.5]
+dx = 0.1
+[[force]]
+lo = [-1.0, -1.0, 0.05]
+hi = [1.0, 1.0, 1.0]
+magnitude = "$push"
+theta_deg = 0.0
+phi_deg = 0.0
+[time]
+end_time = 0.5
+outputs = 10
+cfl = 0.2
+[design]
+kind = "full_factorial"
+push = [0.5, 0.75, 1.0, 1.25, 1.5]
+test = [2]
+)";
+
+class Resume : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("mpmrom_test_resume_" + std::to_string(::getpid()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    scene_ = (dir_ / "scene.toml").string();
+    std::ofstream(scene_) << kScene;
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  static pid_t start(const std::vector<std::string>& args) {
+    std::vector<std::string> argv_strings{MPMROM_CLI, "-q"};
+    argv_strings.insert(argv_strings.end(), args.begin(), args.end());
+    std::vector<char*> argv;
+    for (auto& a : argv_strings) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    pid_t pid = 0;
+    if (posix_spawn(&pid, MPMROM_CLI, nullptr, nullptr, argv.data(), environ) != 0) return -1;
+    return pid;
+  }
+  static int wait_for(pid_t pid) {
+    int status = 0;
+    ::waitpid(pid, &status, 0);
+    return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  }
+  static int run(const std::vector<std::string>& args) { return wait_for(start(args)); }
+  // Starts the command, SIGKILLs it as soon as `marker` exists, and says whether it was killed before it finished.
+  static bool run_and_kill_at(const std::vector<std::string>& args, const fs::path& marker) {
+    const pid_t pid = start(args);
+    int status = 0;
+    while (!fs::exists(marker)) {
+      if (::waitpid(pid, &status, WNOHANG) == pid) return false;  // finished before the marker appeared
+      std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    }
+    ::kill(pid, SIGKILL);
+    ::waitpid(pid, &status, 0);
+    return WIFSIGNALED(status);
+  }
+
+  fs::path dir_;
+  std::string scene_;
+};
+
+void expect_same_run(const std::string& a, const std::string& b) {
+  const Snapshot x = read_snapshot(a), y = read_snapshot(b);
+  EXPECT_EQ(x.time, y.time) << a;
+  EXPECT_EQ(x.x, y.x) << a;
+  EXPECT_EQ(x.v, y.v) << a;
+  EXPECT_EQ(x.F, y.F) << a;
+  EXPECT_EQ(x.C, y.C) << a;
+}
+
+std::vector<fs::path> run_files(const fs::path& sweep) {
+  std::vector<fs::path> files;
+  for (const auto& entry : fs::directory_iterator(sweep / "runs")) files.push_back(entry.path().filename());
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
+TEST_F(Resume, SameInputsGiveBitwiseIdenticalRuns) {
+  ASSERT_EQ(run({"simulate", scene_, "--out", (dir_ / "a.h5").string()}), 0);
+  ASSERT_EQ(run({"simulate", scene_, "--out", (dir_ / "b.h5").string()}), 0);
+  expect_same_run((dir_ / "a.h5").string(), (dir_ / "b.h5").string());
+}
+
+TEST_F(Resume, KilledSweepResumesToTheUninterruptedResult) {
+  const fs::path whole = dir_ / "whole", killed = dir_ / "killed";
+  ASSERT_EQ(run({"sweep", scene_, "--out", whole.string()}), 0);
+  // Killed once its second run is on disk: the third was in progress, its temporary file left behind.
+  ASSERT_TRUE(run_and_kill_at({"sweep", scene_, "--out", killed.string()}, killed / "runs" / "run_001.h5"));
+  EXPECT_FALSE(fs::exists(killed / "design.csv"));
+  EXPECT_FALSE(fs::exists(killed / "runs" / "run_004.h5"));
+  ASSERT_EQ(run({"sweep", scene_, "--out", killed.string(), "--resume"}), 0);
+  EXPECT_EQ(run_files(killed), run_files(whole));  // no temporary left, nothing missing
+  for (const auto& file : run_files(whole))
+    if (file.extension() == ".h5") expect_same_run((whole / "runs" / file).string(), (killed / "runs" / file).string());
+  std::ifstream a(whole / "design.csv"), b(killed / "design.csv");
+  EXPECT_EQ(std::string(std::istreambuf_iterator<char>(a), {}), std::string(std::istreambuf_iterator<char>(b), {}));
+}
+
+TEST_F(Resume, ResumingASweepOfAnotherSceneIsRefused) {
+  const fs::path sweep = dir_ / "sweep";
+  ASSERT_EQ(run({"sweep", scene_, "--out", sweep.string()}), 0);
+  std::string other = kScene;
+  other.replace(other.find("cfl = 0.2"), 9, "cfl = 0.3");
+  std::ofstream(dir_ / "other.toml") << other;
+  EXPECT_NE(run({"sweep", (dir_ / "other.toml").string(), "--out", sweep.string(), "--resume"}), 0);
+  EXPECT_EQ(run({"sweep", (dir_ / "other.toml").string(), "--out", sweep.string()}), 0);  // without: replaced
+}
+
+TEST_F(Resume, KilledTrainingResumesToTheUninterruptedModel) {
+  const fs::path sweep = dir_ / "sweep";
+  ASSERT_EQ(run({"sweep", scene_, "--out", sweep.string()}), 0);
+  const std::vector<std::string> train{"train",   sweep.string(), "--latent", "2", "--width", "8", "--depth", "3",
+                                       "--epochs", "60",          "--checkpoint-seconds", "0"};
+  auto with = [&](std::vector<std::string> args, const std::vector<std::string>& more) {
+    args.insert(args.end(), more.begin(), more.end());
+    return args;
+  };
+  const std::string whole = (dir_ / "whole.h5").string(), killed = (dir_ / "killed.h5").string();
+  ASSERT_EQ(run(with(train, {"--out", whole})), 0);
+  // Killed once a checkpoint exists (one is written after every epoch here).
+  ASSERT_TRUE(run_and_kill_at(with(train, {"--out", killed}), killed + ".ckpt"));
+  EXPECT_FALSE(fs::exists(killed));
+  ASSERT_EQ(run(with(train, {"--out", killed, "--resume"})), 0);
+  EXPECT_FALSE(fs::exists(killed + ".ckpt"));
+  const Model a = load_model(whole), b = load_model(killed);
+  EXPECT_EQ(a.weights, b.weights);
+  EXPECT_EQ(a.codes, b.codes);
+}
+
+}  // namespace
+}  // namespace mpmrom::test
