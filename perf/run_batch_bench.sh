@@ -1,0 +1,76 @@
+#!/usr/bin/env bash
+# Rollout-steps per second as the batch grows: one record per ROM configuration, holding one point per batch size.
+# Each batch cycles through the scene's design runs; each point is one `mpmrom rollout --json` of that batch over
+# END_TIME (default: one output interval of the scene), so setup and output are not timed (rom_step_seconds is the
+# mean wall time of one batch step, fenced).
+# Usage: perf/run_batch_bench.sh BUILD_DIR MODEL SCENE [BATCHES] [END_TIME]
+#   BATCHES: space-separated batch sizes (default "1 10 100 1000 10000 100000")
+#   CONFIGS="point:15 node:15" (method:samples) picks the configurations; SUFFIX (e.g. _h200) tags the file names;
+#   RESULTS (default perf/results) is where the records go.
+set -euo pipefail
+here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+build=${1:?usage: run_batch_bench.sh BUILD_DIR MODEL SCENE [BATCHES] [END_TIME]}
+model=${2:?model file}
+scene=${3:?scene file}
+batches=${4:-"1 10 100 1000 10000 100000"}
+end_time=${5:-0}
+configs=${CONFIGS:-"point:15 node:15"}
+suffix=${SUFFIX:-}
+results=${RESULTS:-$here/perf/results}
+export OMP_PROC_BIND=${OMP_PROC_BIND:-false}
+mpmrom="$build/apps/mpmrom"
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+if [ "$end_time" = 0 ]; then
+  end_time=$(python3 -c 'import sys, tomllib; t = tomllib.load(open(sys.argv[1], "rb"))["time"]; print(t["end_time"] / t["outputs"])' "$scene")
+fi
+for config in $configs; do
+  method=${config%%:*} n=${config##*:}
+  records="$work/records_${method}_${n}.jsonl"
+  : > "$records"
+  for batch in $batches; do
+    python3 - "$scene" "$batch" "$work/params.csv" <<'PY'
+import sys, tomllib, itertools
+scene, batch, out = sys.argv[1], int(sys.argv[2]), sys.argv[3]
+design = tomllib.load(open(scene, "rb"))["design"]
+if design["kind"] == "list":
+    names, runs = design["names"], design["runs"]
+else:
+    names = [k for k in design if k not in ("kind", "test")]
+    runs = list(itertools.product(*(design[n] for n in names)))
+with open(out, "w") as f:
+    f.write(",".join(names) + "\n")
+    for b in range(batch):
+        f.write(",".join(str(v) for v in runs[b % len(runs)]) + "\n")
+PY
+    if ! "$mpmrom" -q rollout "$model" "$scene" --out "$work/rom.h5" --method "$method" --samples "$n" \
+        --params "$work/params.csv" --end-time "$end_time" --json >> "$records" 2> "$work/err"; then
+      echo "batch $batch ($method, $n samples) failed: $(tail -1 "$work/err")" >&2
+      echo "{\"rollouts\": $batch, \"error\": $(tail -1 "$work/err" | python3 -c 'import json,sys; print(json.dumps(sys.stdin.read().strip()))')}" >> "$records"
+      continue
+    fi
+    rm -f "$work/rom.h5"
+    tail -1 "$records" | python3 -c 'import json,sys; d=json.load(sys.stdin); print("%s %s samples, batch %d: %.4g rollout-steps/s, %.4g s per batch step" % (d["settings"]["method"], d["settings"]["samples"], d["rollouts"], d["rom_rollout_steps_per_s"], d["rom_step_seconds"]))' >&2
+  done
+  python3 - "$records" "$results" "$(basename "$scene" .toml)" "$method" "$n" "$suffix" <<'PY'
+import json, sys
+path, results, scene, method, samples, suffix = sys.argv[1:]
+runs = [json.loads(line) for line in open(path)]
+ok = [r for r in runs if "error" not in r]
+if not ok:
+    sys.exit("no batch size ran")
+record = {k: v for k, v in ok[0].items() if k not in ("rollouts", "rom_rollout_steps_per_s", "rom_step_seconds",
+                                                      "setup_seconds", "step_seconds_total", "steps")}
+record["benchmark"] = "rom_batch_throughput"
+record["points"] = [{"batch": r["rollouts"], "error": r["error"]} if "error" in r else
+                    {"batch": r["rollouts"], "steps": r["steps"], "rom_step_seconds": r["rom_step_seconds"],
+                     "rom_rollout_steps_per_s": r["rom_rollout_steps_per_s"], "setup_seconds": r["setup_seconds"]}
+                    for r in runs]
+name = "rom_batch_%s_%s_samples%s_%s_%s%s.json" % (scene, method, samples, record["backend"].lower(),
+                                                   record["precision"], suffix)
+with open("%s/%s" % (results, name), "w") as f:
+    json.dump(record, f)
+    f.write("\n")
+print("%s/%s" % (results, name), file=sys.stderr)
+PY
+done
