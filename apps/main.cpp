@@ -4,6 +4,7 @@
 
 #include <cstdio>
 #include <exception>
+#include <cmath>
 #include <filesystem>
 #include <iostream>
 #include <map>
@@ -74,6 +75,9 @@ void report_training(const mpmrom::TrainingProgress& p, bool quiet) {
 
 // Rollout cases from a parameter file (design.csv form: a column per parameter name, optional split) or, without
 // one, the scene's design (or the scene as it is when it has none).
+// Kokkos' allocation messages run over several lines; the first names the allocation.
+std::string first_line(const std::string& text) { return text.substr(0, text.find('\n')); }
+
 std::vector<mpmrom::RolloutCase> rollout_cases(const mpmrom::Scene& scene, const std::string& params_path,
                                                std::vector<std::string>& names) {
   std::vector<mpmrom::RolloutCase> cases;
@@ -96,10 +100,12 @@ std::vector<mpmrom::RolloutCase> rollout_cases(const mpmrom::Scene& scene, const
         try {
           std::size_t used = 0;
           c.values.push_back(std::stod(columns[k][row], &used));
-          if (used != columns[k][row].size()) throw std::invalid_argument("trailing characters");
+          if (used != columns[k][row].size() || !std::isfinite(c.values.back()))
+            throw std::invalid_argument("not a finite number");
         } catch (const std::exception&) {
-          throw std::runtime_error(params_path + ": row " + std::to_string(row + 1) + ", column '" + names[k] +
-                                   "': '" + columns[k][row] + "' is not a number");
+          // rows counted as in a spreadsheet: the header is row 1
+          throw std::runtime_error(params_path + ": row " + std::to_string(row + 2) + ", column '" + names[k] +
+                                   "': '" + columns[k][row] + "' is not a finite number");
         }
       }
       if (!splits.empty()) c.split = splits[row];
@@ -662,6 +668,12 @@ int main(int argc, char** argv) {
   } catch (const mpmrom::SimulationFailure& e) {
     std::cerr << "mpmrom: the simulation failed (" << to_string(e.cause()) << ") at " << e.what() << "\n";
     return 3;
+  } catch (const std::bad_alloc& e) {
+    // Kokkos' failed allocations (host or device) derive from std::bad_alloc too.
+    std::cerr << "mpmrom: error: out of memory (" << first_line(e.what())
+              << "): the run asks for more memory than this machine or device has; use fewer points or a smaller "
+                 "grid\n";
+    return 1;
   } catch (const std::exception& e) {
     std::cerr << "mpmrom: error: " << e.what() << "\n";
     return 1;

@@ -28,7 +28,13 @@ void sync_to_disk(const std::string& path) {
 }  // namespace
 
 AtomicFile::AtomicFile(std::string final_path)
-    : final_path_(std::move(final_path)), temporary_path_(final_path_ + ".tmp." + std::to_string(::getpid())) {}
+    : final_path_(std::move(final_path)), temporary_path_(final_path_ + ".tmp." + std::to_string(::getpid())) {
+  // Said plainly here rather than as a library's errno report when the temporary cannot be created.
+  const std::filesystem::path directory = std::filesystem::path(final_path_).parent_path();
+  std::error_code error;
+  if (!directory.empty() && !std::filesystem::is_directory(directory, error))
+    throw std::runtime_error("cannot write '" + final_path_ + "': there is no directory '" + directory.string() + "'");
+}
 
 AtomicFile::~AtomicFile() {
   if (committed_) return;

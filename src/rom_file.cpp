@@ -41,6 +41,10 @@ void save_rom(const std::string& path, const RomFile& rom) {
     bad(path, "inconsistent reduced-model result (internal error)");
   impl::require_finite(path, "xhat", res.xhat.data(), {res.xhat.size()});
   impl::require_finite(path, "xhatdot", res.xhatdot.data(), {res.xhatdot.size()});
+  const HyperReduction& sets = rom.sets;
+  if (sets.quadrature_x.size() != 3 * sets.quadrature_weight.size() ||
+      (!sets.node_offsets.empty() && sets.node_offsets.size() != sets.nodes.size() + 1))
+    bad(path, "inconsistent hyper-reduction sets (internal error)");
   const std::size_t n = rom.decoded_X.size() / 3;
   if (n > 0) {
     if (rom.decoded_x.size() != B * frames * n * 3 || rom.decoded_v.size() != B * frames * n * 3 ||
@@ -106,6 +110,19 @@ void save_rom(const std::string& path, const RomFile& rom) {
 
     hdf5::Group samples = file.create_group("samples");
     write_dataset(samples, "indices", hdf5::Element::int64, to_int64(rom.samples), {rom.samples.size()});
+
+    hdf5::Group reduction = file.create_group("hyper_reduction");
+    write_dataset(reduction, "source_points", hdf5::Element::int64, to_int64(sets.source_points),
+                  {sets.source_points.size()});
+    write_dataset(reduction, "nodes", hdf5::Element::int64, to_int64(sets.nodes), {sets.nodes.size()});
+    write_dataset(reduction, "node_offsets", hdf5::Element::int64, to_int64(sets.node_offsets),
+                  {sets.node_offsets.size()});
+    write_dataset(reduction, "node_sources", hdf5::Element::int64, to_int64(sets.node_sources),
+                  {sets.node_sources.size()});
+    write_dataset(reduction, "quadrature_x", hdf5::Element::float64, sets.quadrature_x,
+                  {sets.quadrature_weight.size(), 3});
+    write_dataset(reduction, "quadrature_weight", hdf5::Element::float64, sets.quadrature_weight,
+                  {sets.quadrature_weight.size()});
 
     if (n > 0) {
       hdf5::Group decoded = file.create_group("decoded");
@@ -206,6 +223,30 @@ RomFile load_rom(const std::string& path) {
   if (sample_shape.size() != 1) bad(path, "/samples/indices must be a vector");
   for (const double s : impl::read_checked(path, samples.dataset("indices"), sample_shape, ""))
     rom.samples.push_back(int(s));
+  if (file.has_child("hyper_reduction")) {  // absent in files written before it existed
+    const hdf5::Group reduction = file.group("hyper_reduction");
+    const auto indices = [&](const char* name) {
+      const auto shape = reduction.dataset(name).shape();
+      if (shape.size() != 1) bad(path, std::string("/hyper_reduction/") + name + " must be a vector");
+      const auto values = impl::read_checked(path, reduction.dataset(name), shape, "");
+      return std::vector<int>(values.begin(), values.end());
+    };
+    HyperReduction& sets = rom.sets;
+    sets.samples = rom.samples;
+    sets.source_points = indices("source_points");
+    sets.nodes = indices("nodes");
+    sets.node_offsets = indices("node_offsets");
+    sets.node_sources = indices("node_sources");
+    const auto weight_shape = reduction.dataset("quadrature_weight").shape();
+    if (weight_shape.size() != 1) bad(path, "/hyper_reduction/quadrature_weight must be a vector");
+    sets.quadrature_weight = impl::read_checked(path, reduction.dataset("quadrature_weight"), weight_shape, "");
+    sets.quadrature_x = impl::read_checked(path, reduction.dataset("quadrature_x"), {weight_shape[0], 3},
+                                           "(quadrature points, 3)");
+    if (!sets.node_offsets.empty() &&
+        (sets.node_offsets.size() != sets.nodes.size() + 1 || sets.node_offsets.front() != 0 ||
+         std::size_t(sets.node_offsets.back()) != sets.node_sources.size()))
+      bad(path, "/hyper_reduction/node_offsets does not match nodes and node_sources");
+  }
   if (file.has_child("decoded")) {
     const hdf5::Group decoded = file.group("decoded");
     const auto X_shape = decoded.dataset("X").shape();

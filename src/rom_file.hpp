@@ -26,6 +26,10 @@ struct RomFile {
   nlohmann::json hyper_reduction = nlohmann::json::object();
   nlohmann::json timing = nlohmann::json::object();
   std::vector<int> samples;
+  // The precomputed sets the rollouts ran with (source points, node set I and its gather lists, quadrature points),
+  // in /hyper_reduction: enough for a peer outside mpmrom to re-run the same step (perf/peers/). Empty in files
+  // written before the group existed.
+  HyperReduction sets;
   // Decoded fields (optional): points X (n, 3); x, v (rollouts, frames, n, 3); F (rollouts, frames, n, 3, 3).
   std::vector<double> decoded_X, decoded_x, decoded_v, decoded_F;
 };
