@@ -75,8 +75,11 @@ void report_training(const mpmrom::TrainingProgress& p, bool quiet) {
 
 // Rollout cases from a parameter file (design.csv form: a column per parameter name, optional split) or, without
 // one, the scene's design (or the scene as it is when it has none).
-// Kokkos' allocation messages run over several lines; the first names the allocation.
-std::string first_line(const std::string& text) { return text.substr(0, text.find('\n')); }
+// One line for a failed allocation; Kokkos' own message runs over several, its first names the allocation.
+std::string out_of_memory(const std::string& what) {
+  return "mpmrom: error: out of memory (" + what.substr(0, what.find('\n')) +
+         "): the run needs more memory than this machine or device has; use fewer points or a coarser grid\n";
+}
 
 std::vector<mpmrom::RolloutCase> rollout_cases(const mpmrom::Scene& scene, const std::string& params_path,
                                                std::vector<std::string>& names) {
@@ -669,13 +672,13 @@ int main(int argc, char** argv) {
     std::cerr << "mpmrom: the simulation failed (" << to_string(e.cause()) << ") at " << e.what() << "\n";
     return 3;
   } catch (const std::bad_alloc& e) {
-    // Kokkos' failed allocations (host or device) derive from std::bad_alloc too.
-    std::cerr << "mpmrom: error: out of memory (" << first_line(e.what())
-              << "): the run asks for more memory than this machine or device has; use fewer points or a smaller "
-                 "grid\n";
+    std::cerr << out_of_memory(e.what());
     return 1;
   } catch (const std::exception& e) {
-    std::cerr << "mpmrom: error: " << e.what() << "\n";
+    // Kokkos reports a failed View allocation as a runtime error of several lines.
+    const std::string what = e.what();
+    std::cerr << (what.rfind("Kokkos failed to allocate", 0) == 0 ? out_of_memory(what)
+                                                                   : "mpmrom: error: " + what + "\n");
     return 1;
   }
   return 0;

@@ -7,6 +7,7 @@ packages=(
   build-essential cmake git pkg-config tar gzip
   libeigen3-dev libhdf5-dev hdf5-tools libcli11-dev libtomlplusplus-dev nlohmann-json3-dev
   libgtest-dev libbenchmark-dev gnuplot-nox
+  clang libclang-rt-dev libtrilinos-kokkos-dev
 )
 
 missing=()

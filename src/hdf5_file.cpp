@@ -194,23 +194,23 @@ std::string Object::string_attribute(const std::string& name) const {
   const OpenAttribute open = open_string_attribute(*this, name);
   if (open.count != 1) refuse(file_name_, attribute_name(*this, name), "is not a single string");
   char* value = nullptr;
-  if (H5Aread(open.attribute.get(), open.type.get(), &value) < 0) fail(file_name_, "read", attribute_name(*this, name));
+  const herr_t status = H5Aread(open.attribute.get(), open.type.get(), &value);
   std::string result = value != nullptr ? value : "";
-  H5free_memory(value);
+  H5free_memory(value);  // a failed read may still have allocated it
+  if (status < 0) fail(file_name_, "read", attribute_name(*this, name));
   return result;
 }
 
 std::vector<std::string> Object::string_list_attribute(const std::string& name) const {
   const OpenAttribute open = open_string_attribute(*this, name);
   std::vector<char*> values(static_cast<std::size_t>(open.count), nullptr);
-  if (!values.empty() && H5Aread(open.attribute.get(), open.type.get(), values.data()) < 0) {
-    fail(file_name_, "read", attribute_name(*this, name));
-  }
+  const herr_t status = values.empty() ? 0 : H5Aread(open.attribute.get(), open.type.get(), values.data());
   std::vector<std::string> result;
-  for (char* value : values) {
+  for (char* value : values) {  // freed also after a failed read, which may have converted some of them
     result.emplace_back(value != nullptr ? value : "");
     H5free_memory(value);
   }
+  if (status < 0) fail(file_name_, "read", attribute_name(*this, name));
   return result;
 }
 

@@ -1,0 +1,94 @@
+#!/usr/bin/env bash
+# Tries each bad input (quietly: -q, so that only what a failure prints is counted) of docs/reliability.md on the command line and prints the table rows: the input, the exit
+# code and the one line the tool printed (rerun it to refresh the document). Uses fuzz/seed_scene.toml and the
+# seed files of fuzz/corpus/hdf5/ as the good inputs that each case spoils.
+# Usage: scripts/bad_inputs.sh [BUILD_DIR]     (default build/double)
+set -uo pipefail
+here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+mpmrom=$(cd "${1:-$here/build/double}" && pwd)/apps/mpmrom
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+cd "$work"
+export OMP_NUM_THREADS=1
+seed="$here/fuzz/seed_scene.toml"
+corpus="$here/fuzz/corpus/hdf5"
+
+# A copy of the seed scene with one line replaced (sed expression).
+scene_with() { sed -e "$1" "$seed" > "$2"; }
+
+row() {  # row DESCRIPTION COMMAND...
+  local description=$1
+  shift
+  local output status
+  output=$("$@" 2>&1 >/dev/null)
+  status=$?
+  local lines
+  lines=$(printf '%s' "$output" | grep -c '' || true)
+  output=$(printf '%s' "$output" | head -n 1 | sed -e "s|$work/||g" -e "s|$here/||g" -e 's/|/\\|/g')
+  printf '| %s | %s | %s | `%s` |\n' "$description" "$status" "$lines" "$output"
+}
+
+echo "| bad input | exit | lines | what the tool printed (first line) |"
+echo "| --- | --- | --- | --- |"
+scene_with 's/^\[time\]$/[time/' syntax.toml
+row "scene: TOML syntax error" "$mpmrom" -q simulate syntax.toml --out out.h5
+scene_with '/^\[grid\]$/,/^dx/d' nogrid.toml
+row "scene: missing [grid]" "$mpmrom" -q simulate nogrid.toml --out out.h5
+scene_with 's/^dx = 0.1$/dx = "fine"/' type.toml
+row "scene: wrong type (dx = \"fine\")" "$mpmrom" -q simulate type.toml --out out.h5
+scene_with 's/^dx = 0.1$/dx = 0.0/' zero.toml
+row "scene: zero grid spacing" "$mpmrom" -q simulate zero.toml --out out.h5
+scene_with 's/^size = .*$/size = [0.2, -0.2, 0.2]/' negative.toml
+row "scene: negative body size" "$mpmrom" -q simulate negative.toml --out out.h5
+scene_with 's/^poisson_ratio = 0.3$/poisson_ratio = 0.5/' nu.toml
+row "scene: nu = 0.5" "$mpmrom" -q simulate nu.toml --out out.h5
+scene_with 's/^spacing = 0.05$/spacing = 0.5/' empty.toml
+row "scene: body with no material point (spacing above its size)" "$mpmrom" -q simulate empty.toml --out out.h5
+scene_with 's/^center = .*$/center = [0.45, 0.0, 0.0]/' outside.toml
+row "scene: body outside the grid" "$mpmrom" -q simulate outside.toml --out out.h5
+scene_with 's/^youngs_modulus = .*$/youngs_modulus = nan/' nan.toml
+row "scene: NaN material constant" "$mpmrom" -q simulate nan.toml --out out.h5
+row "scene: NaN in --set" "$mpmrom" -q simulate "$seed" --set push=inf --out out.h5
+scene_with 's/^spacing = 0.05$/spacing = 0.00001/' huge.toml
+row "scene: 8e12 material points (too little memory)" "$mpmrom" -q simulate huge.toml --out out.h5
+scene_with 's/^lo = .*$/lo = [-6.0, -6.0, -6.0]/; s/^hi = .*$/hi = [6.0, 6.0, 6.0]/; s/^dx = 0.1$/dx = 0.01/' biggrid.toml
+row "scene: 1.7e9 grid nodes, 55 GB (too little memory)" "$mpmrom" -q simulate biggrid.toml --out out.h5
+scene_with 's/^lo = .*$/lo = [-100.0, -100.0, -100.0]/; s/^hi = .*$/hi = [100.0, 100.0, 100.0]/; s/^dx = 0.1$/dx = 0.001/' hugegrid.toml
+row "scene: 8e15 grid nodes" "$mpmrom" -q simulate hugegrid.toml --out out.h5
+row "scene file missing" "$mpmrom" -q simulate missing.toml --out out.h5
+
+row "unwritable output path (/proc)" "$mpmrom" -q simulate "$seed" --out /proc/out.h5
+row "output in a missing directory" "$mpmrom" -q simulate "$seed" --out no/such/dir/out.h5
+
+head -c 6000 "$corpus/snapshot.h5" > truncated.h5
+mkdir -p sweep/runs && cp truncated.h5 sweep/runs/run_000.h5
+printf 'push,split,file\n0.5,train,runs/run_000.h5\n' > sweep/design.csv
+row "snapshot truncated (training input)" "$mpmrom" -q train sweep --out m.h5 --epochs 1
+printf 'not an hdf5 file\n' > text.h5
+cp text.h5 sweep/runs/run_000.h5
+row "snapshot that is not HDF5" "$mpmrom" -q train sweep --out m.h5 --epochs 1
+cp "$corpus/model.h5" sweep/runs/run_000.h5
+row "a model file given as a snapshot" "$mpmrom" -q train sweep --out m.h5 --epochs 1
+cp "$corpus/snapshot.h5" version.h5
+if python3 -c 'import h5py' 2>/dev/null; then
+  python3 -c 'import h5py, sys; f = h5py.File(sys.argv[1], "r+"); f.attrs["format_version"] = 99' version.h5
+  cp version.h5 sweep/runs/run_000.h5
+  row "snapshot of another format version" "$mpmrom" -q train sweep --out m.h5 --epochs 1
+  cp "$corpus/snapshot.h5" shape.h5
+  python3 - shape.h5 <<'PY'
+import h5py, sys
+f = h5py.File(sys.argv[1], "r+")
+x = f["x"][...]
+del f["x"]
+f["x"] = x[:, :-1, :]
+PY
+  cp shape.h5 sweep/runs/run_000.h5
+  row "snapshot with mismatched shapes (x one point short)" "$mpmrom" -q train sweep --out m.h5 --epochs 1
+fi
+row "model truncated" "$mpmrom" -q rollout truncated.h5 "$seed" --out rom.h5
+row "a snapshot given as a model" "$mpmrom" -q rollout "$corpus/snapshot.h5" "$seed" --out rom.h5
+scene_with 's/^name = .*$/name = "another_scene"/; s/^spacing = 0.05$/spacing = 0.04/' other.toml
+row "model used with a scene it was not trained for" "$mpmrom" -q rollout "$corpus/model.h5" other.toml --out rom.h5
+printf 'push\nnan\n' > nan.csv
+row "NaN in a rollout's parameter file" "$mpmrom" -q rollout "$corpus/model.h5" "$seed" --out rom.h5 --params nan.csv
+row "ROM file truncated (evaluate)" "$mpmrom" -q evaluate truncated.h5 sweep
