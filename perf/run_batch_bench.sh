@@ -29,20 +29,7 @@ for config in $configs; do
   records="$work/records_${method}_${n}.jsonl"
   : > "$records"
   for batch in $batches; do
-    python3 - "$scene" "$batch" "$work/params.csv" <<'PY'
-import sys, tomllib, itertools
-scene, batch, out = sys.argv[1], int(sys.argv[2]), sys.argv[3]
-design = tomllib.load(open(scene, "rb"))["design"]
-if design["kind"] == "list":
-    names, runs = design["names"], design["runs"]
-else:
-    names = [k for k in design if k not in ("kind", "test")]
-    runs = list(itertools.product(*(design[n] for n in names)))
-with open(out, "w") as f:
-    f.write(",".join(names) + "\n")
-    for b in range(batch):
-        f.write(",".join(str(v) for v in runs[b % len(runs)]) + "\n")
-PY
+    python3 "$here/perf/design_params.py" "$scene" "$batch" "$work/params.csv"
     if ! "$mpmrom" -q rollout "$model" "$scene" --out "$work/rom.h5" --method "$method" --samples "$n" \
         --params "$work/params.csv" --end-time "$end_time" --json >> "$records" 2> "$work/err"; then
       echo "batch $batch ($method, $n samples) failed: $(tail -1 "$work/err")" >&2

@@ -21,20 +21,7 @@ work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 fom=$("$mpmrom" -q bench fom "$scene" --steps 50 --json)
 # The first run of the scene's design, repeated BATCH times.
-python3 - "$scene" "$batch" "$work/params.csv" <<'PY'
-import sys, tomllib, itertools
-scene, batch, out = sys.argv[1], int(sys.argv[2]), sys.argv[3]
-design = tomllib.load(open(scene, "rb"))["design"]
-if design["kind"] == "list":
-    names, first = design["names"], design["runs"][0]
-else:
-    names = [k for k in design if k not in ("kind", "test")]
-    first = [design[n][0] for n in names]
-with open(out, "w") as f:
-    f.write(",".join(names) + "\n")
-    for _ in range(batch):
-        f.write(",".join(str(v) for v in first) + "\n")
-PY
+python3 "$here/perf/design_params.py" "$scene" "$batch" "$work/params.csv" --first
 for config in $configs; do
   method=${config%%:*} n=${config##*:}
   rom=$("$mpmrom" -q rollout "$model" "$scene" --out "$work/rom.h5" --method "$method" --samples "$n" \
