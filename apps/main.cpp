@@ -32,10 +32,17 @@ nlohmann::json to_json(const mpmrom::RuntimeInfo& info) {
 }
 
 const std::map<std::string, mpmrom::P2GStrategy> kP2GStrategies{{"atomic", mpmrom::P2GStrategy::Atomic},
-                                                                   {"scatter", mpmrom::P2GStrategy::ScatterView}};
+                                                                   {"scatter", mpmrom::P2GStrategy::ScatterView},
+                                                                   {"tiled", mpmrom::P2GStrategy::Tiled}};
 const char* const kP2GHelp =
-    "Particle-to-grid accumulation: scatter (per-thread grid copies; bitwise reproducible; default on CPUs) or atomic "
-    "(default on GPUs)";
+    "Particle-to-grid accumulation: scatter (per-thread grid copies; bitwise reproducible; default on CPUs), tiled "
+    "(teams sum into shared-memory tiles, then the grid; default on GPUs) or atomic (straight into the grid)";
+
+std::string p2g_name(mpmrom::P2GStrategy strategy) {
+  for (const auto& [name, value] : kP2GStrategies)
+    if (value == strategy) return name;
+  return "";
+}
 
 // One progress line per tenth of a run (every frame on a terminal), with the rate and the time left.
 void report_progress(const mpmrom::SimulationProgress& p, bool quiet) {
@@ -382,6 +389,16 @@ int main(int argc, char** argv) {
   bench_fom->add_option("--warmup", bench_warmup, "Untimed steps first")->check(CLI::NonNegativeNumber);
   bench_fom->add_option("--p2g", p2g, kP2GHelp)
       ->transform(CLI::CheckedTransformer(kP2GStrategies, CLI::ignore_case));
+  mpmrom::P2GTiling tiling = mpmrom::default_p2g_tiling<mpmrom::FomSolver::ExecutionSpace>();
+  bench_fom->add_option("--team-size", tiling.team_size, "Tiled P2G: threads per team")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  bench_fom->add_option("--particles-per-team", tiling.particles_per_team, "Tiled P2G: consecutive particles per team")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  bench_fom->add_option("--tile-nodes", tiling.max_tile_nodes, "Tiled P2G: largest tile (nodes) a team keeps in scratch")
+      ->capture_default_str()
+      ->check(CLI::Range(27, 1 << 20));
   bench_fom->add_flag("--json", bench_json, "One JSON record on stdout");
   bench_fom->footer("Example: mpmrom bench fom scenes/cylinder_1e6.toml --p2g scatter --json");
 
@@ -465,6 +482,8 @@ int main(int argc, char** argv) {
         record["training_snapshots"] = model.num_codes();
         record["test_runs"] = data.test.runs.size();
         record["training_seconds"] = model.errors["training_seconds"];
+        if (model.errors.contains("training_samples_per_s"))
+          record["training_samples_per_s"] = model.errors["training_samples_per_s"];
         record["settings"] = model.settings;
         record["errors"] = model.errors;
         std::cout << record.dump() << "\n";
@@ -624,15 +643,23 @@ int main(int argc, char** argv) {
     }
     if (*bench_fom) {
       const mpmrom::Scene scene = mpmrom::load_scene(scene_path, overrides);
-      const auto result = mpmrom::bench_fom(scene, p2g, bench_steps, bench_warmup);
+      const auto result = mpmrom::bench_fom(scene, p2g, tiling, bench_steps, bench_warmup);
       auto record = mpmrom::benchmark_record("fom_step", scene.name);
-      record["p2g"] = p2g == mpmrom::P2GStrategy::Atomic ? "atomic" : "scatter";
+      record["p2g"] = p2g_name(p2g);
+      if (p2g == mpmrom::P2GStrategy::Tiled)
+        record["p2g_tiling"] = {{"team_size", tiling.team_size},
+                                {"particles_per_team", tiling.particles_per_team},
+                                {"max_tile_nodes", tiling.max_tile_nodes}};
       record["particles"] = result.particles;
       record["grid_nodes"] = result.grid_nodes;
       record["steps"] = result.steps;
       record["dt_s"] = result.dt;
       record["fom_step_seconds"] = result.seconds / result.steps;
       record["fom_particle_steps_per_s"] = double(result.particles) * result.steps / result.seconds;
+      record["particle_bytes_per_step"] = result.particle_bytes;
+      record["grid_bytes_per_step"] = result.grid_bytes;
+      record["effective_bandwidth_bytes_per_s"] =
+          (result.particle_bytes + result.grid_bytes) * result.steps / result.seconds;
       if (bench_json)
         std::cout << record.dump() << "\n";
       else

@@ -38,11 +38,14 @@ ParticleEnergy particle_energy(const ExecutionSpace& space, const ParticleViews<
   return energy;
 }
 
+// Writes the power into `power` (a device View, so the host need not wait).
 template <class ExecutionSpace, class MemorySpace>
-double external_force_power(const ExecutionSpace& space, const ParticleViews<MemorySpace>& particles,
-                            const ExternalForces& forces) {
-  double power = 0;
-  if (forces.count == 0) return power;
+void external_force_power(const ExecutionSpace& space, const ParticleViews<MemorySpace>& particles,
+                          const ExternalForces& forces, const Kokkos::View<double, MemorySpace>& power) {
+  if (forces.count == 0) {
+    Kokkos::deep_copy(space, power, 0.0);
+    return;
+  }
   Kokkos::parallel_reduce(
       "mpmrom::fom::external_force_power", Kokkos::RangePolicy<ExecutionSpace>(space, 0, particles.size()),
       KOKKOS_LAMBDA(const int p, double& sum) {
@@ -54,7 +57,6 @@ double external_force_power(const ExecutionSpace& space, const ParticleViews<Mem
         }
       },
       power);
-  return power;
 }
 
 }  // namespace mpmrom

@@ -1,8 +1,9 @@
 // Grid-to-particle transfer and particle update:
 //   v_p = sum_i w_ip v_i,  C_p = (4 / dx^2) sum_i w_ip v_i (x_i - x_p)^T (APIC; zero for PIC),
 //   F_p <- (I + dt sum_i v_i grad w_ip^T) F_p,  x_p <- x_p + dt v_p.
-// Returns the largest particle speed, which sets the next CFL time step, and counts in `problems` the particles left
-// in a state the run cannot go on from (the driver reports them; counting costs nothing while none occurs).
+// Writes the largest particle speed, which sets the next CFL time step, into `max_speed` (a device View, so the
+// host need not wait), and counts in `problems` the particles left in a state the run cannot go on from (the
+// driver reports them; counting costs nothing while none occurs).
 // Parallelism: one thread per particle.
 #pragma once
 
@@ -18,10 +19,9 @@ template <class MemorySpace>
 using ParticleProblemCounts = Kokkos::View<int[num_particle_problems], MemorySpace>;
 
 template <class ExecutionSpace, class MemorySpace>
-real_t g2p(const ExecutionSpace& space, const ParticleViews<MemorySpace>& particles,
-           const GridNodeView<MemorySpace>& nodes, const GridGeometry<real_t>& grid, real_t dt, bool apic,
-           const ParticleProblemCounts<MemorySpace>& problems) {
-  real_t max_speed = 0;
+void g2p(const ExecutionSpace& space, const ParticleViews<MemorySpace>& particles, const GridNodeView<MemorySpace>& nodes,
+         const GridGeometry<real_t>& grid, real_t dt, bool apic, const ParticleProblemCounts<MemorySpace>& problems,
+         const Kokkos::View<real_t, MemorySpace>& max_speed) {
   // D_p^{-1} = 4 / dx^2 for quadratic B-splines (Jiang et al. 2015).
   const real_t inverse_inertia = real_t(4) * grid.inv_dx * grid.inv_dx;
   Kokkos::parallel_reduce(
@@ -55,8 +55,7 @@ real_t g2p(const ExecutionSpace& space, const ParticleViews<MemorySpace>& partic
         store_vec3(particles.x, p, x_next);
         speed = math::max(speed, norm(v));
       },
-      Kokkos::Max<real_t>(max_speed));
-  return max_speed;
+      Kokkos::Max<real_t, MemorySpace>(max_speed));
 }
 
 }  // namespace mpmrom

@@ -52,16 +52,17 @@ KOKKOS_INLINE_FUNCTION Vec3<real_t> constrained_node_velocity(Vec3<real_t> v, co
   return v;
 }
 
-// Returns the work done on the grid by gravity and the boundary conditions in this step, sum_i m_i (v_i - p_i / m_i).v_i
-// over the updated velocities v_i: zero for resting walls and held nodes (the impulse is normal to, or multiplies, a
-// zero velocity), the input of moving Dirichlet regions and of gravity otherwise (the FOM's energy budget).
+// Writes into `work` (a device View) the work done on the grid by gravity and the boundary conditions in this step,
+// sum_i m_i (v_i - p_i / m_i).v_i over the updated velocities v_i: zero for resting walls and held nodes (the impulse
+// is normal to, or multiplies, a zero velocity), the input of moving Dirichlet regions and of gravity otherwise (the
+// FOM's energy budget). Summed in double: it is compared with small budgets in float builds too.
 template <class ExecutionSpace, class MemorySpace>
-real_t grid_update(const ExecutionSpace& space, const GridNodeView<MemorySpace>& nodes, const GridGeometry<real_t>& grid,
-                 const Vec3<real_t>& gravity, const GridBoundary& boundary, real_t dt) {
-  real_t work = 0;
+void grid_update(const ExecutionSpace& space, const GridNodeView<MemorySpace>& nodes, const GridGeometry<real_t>& grid,
+                 const Vec3<real_t>& gravity, const GridBoundary& boundary, real_t dt,
+                 const Kokkos::View<double, MemorySpace>& work) {
   Kokkos::parallel_reduce(
       "mpmrom::fom::grid_update", Kokkos::RangePolicy<ExecutionSpace>(space, 0, grid.num_nodes()),
-      KOKKOS_LAMBDA(const int node, real_t& node_work) {
+      KOKKOS_LAMBDA(const int node, double& node_work) {
         const real_t m = nodes(node, 0);
         if (m <= real_t(0)) {
           for (int d = 1; d < 4; ++d) nodes(node, d) = 0;
@@ -74,12 +75,11 @@ real_t grid_update(const ExecutionSpace& space, const GridNodeView<MemorySpace>&
         grid.indices(node, idx[0], idx[1], idx[2]);
         const Vec3<real_t> constrained = constrained_node_velocity(v, idx, grid, boundary);
         for (int d = 0; d < 3; ++d) {
-          node_work += (m * constrained[d] - nodes(node, d + 1)) * constrained[d];
+          node_work += double((m * constrained[d] - nodes(node, d + 1)) * constrained[d]);
           nodes(node, d + 1) = constrained[d];
         }
       },
       work);
-  return work;
 }
 
 }  // namespace mpmrom

@@ -1,6 +1,9 @@
 #include "fom.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <numeric>
 #include <stdexcept>
 
 #include "sampling.hpp"
@@ -59,17 +62,54 @@ ElasticMaterial<real_t> material_for_scene(const Scene& scene) {
 
 P2GStrategy default_p2g_strategy() {
   return Kokkos::SpaceAccessibility<Kokkos::HostSpace, FomSolver::MemorySpace>::accessible ? P2GStrategy::ScatterView
-                                                                                          : P2GStrategy::Atomic;
+                                                                                          : P2GStrategy::Tiled;
 }
 
-FomSolver::FomSolver(const Scene& scene, P2GStrategy strategy)
+namespace {
+
+// Sample indices in storage order: by brick of 4^3 cells (bricks in grid order), then by cell inside the brick, then
+// in sampling order (a stable sort: the order is the same on every machine).
+std::vector<std::size_t> brick_order(const std::vector<double>& X, const GridGeometry<real_t>& grid) {
+  constexpr int kBrick = 4;
+  const std::size_t n = X.size() / 3;
+  int bricks[3];
+  for (int d = 0; d < 3; ++d) bricks[d] = (grid.dims[d] + kBrick - 1) / kBrick;
+  std::vector<std::uint64_t> key(n);
+  for (std::size_t p = 0; p < n; ++p) {
+    int brick[3], cell[3];
+    for (int d = 0; d < 3; ++d) {
+      const double c = std::floor((X[3 * p + d] - double(grid.origin[d])) / double(grid.dx));
+      const int clamped = static_cast<int>(std::min(std::max(c, 0.0), double(grid.dims[d] - 1)));
+      brick[d] = clamped / kBrick;
+      cell[d] = clamped % kBrick;
+    }
+    const std::uint64_t brick_index = (std::uint64_t(brick[0]) * bricks[1] + brick[1]) * bricks[2] + brick[2];
+    key[p] = brick_index * (kBrick * kBrick * kBrick) + (cell[0] * kBrick + cell[1]) * kBrick + cell[2];
+  }
+  std::vector<std::size_t> order(n);
+  std::iota(order.begin(), order.end(), std::size_t(0));
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return key[a] < key[b]; });
+  return order;
+}
+
+}  // namespace
+
+FomSolver::FomSolver(const Scene& scene, P2GStrategy strategy, const P2GTiling& tiling)
     : scene_(scene),
       strategy_(strategy),
+      tiling_(tiling),
       grid_(grid_for_scene(scene)),
       material_(material_for_scene(scene)),
       wave_speed_(stable_time_step_wave_speed(material_, static_cast<real_t>(scene.material.density))),
       outside_("mpmrom::fom::outside"),
-      problems_("mpmrom::fom::problems") {
+      problems_("mpmrom::fom::problems"),
+      step_max_speed_("mpmrom::fom::step_max_speed"),
+      step_grid_work_("mpmrom::fom::step_grid_work"),
+      step_force_power_("mpmrom::fom::step_force_power"),
+      step_diagnostics_("mpmrom::fom::step_diagnostics"),
+      step_diagnostics_host_("mpmrom::fom::step_diagnostics_host") {
+  if (tiling.team_size < 1 || tiling.particles_per_team < 1 || tiling.max_tile_nodes < 27)
+    throw std::runtime_error("P2G tiles need at least one thread and one particle per team and room for 27 nodes");
   if (scene.forces.size() > static_cast<std::size_t>(kMaxExternalForces))
     throw std::runtime_error("at most " + std::to_string(kMaxExternalForces) + " [[force]] entries are supported");
   if (scene.dirichlet.size() > static_cast<std::size_t>(kMaxDirichletRegions))
@@ -78,6 +118,7 @@ FomSolver::FomSolver(const Scene& scene, P2GStrategy strategy)
 
   const ParticleSamples samples = sample_scene(scene);
   const std::size_t n = samples.size();
+  sample_of_slot_ = brick_order(samples.X, grid_);
   const int num_forces = static_cast<int>(scene.forces.size());
   particles_ = ParticleViews<MemorySpace>(n, num_forces);
   nodes_ = GridNodeView<MemorySpace>("mpmrom::fom::grid_nodes", grid_.num_nodes());
@@ -90,20 +131,21 @@ FomSolver::FomSolver(const Scene& scene, P2GStrategy strategy)
   auto mass = Kokkos::create_mirror_view(particles_.mass);
   auto volume = Kokkos::create_mirror_view(particles_.volume);
   auto share = Kokkos::create_mirror_view(particles_.force_share);
-  for (std::size_t p = 0; p < n; ++p) {
-    const Vec3d& w = scene.bodies[samples.body[p]].angular_velocity;
+  for (std::size_t p = 0; p < n; ++p) {  // p: storage slot, q: the sample stored there
+    const std::size_t q = sample_of_slot_[p];
+    const Vec3d& w = scene.bodies[samples.body[q]].angular_velocity;
     // A rigid spin v = w x r has velocity gradient [w]_x, which APIC carries in C from the start.
     const double spin[3][3] = {{0, -w[2], w[1]}, {w[2], 0, -w[0]}, {-w[1], w[0], 0}};
     for (int i = 0; i < 3; ++i) {
-      X(p, i) = static_cast<real_t>(samples.X[3 * p + i]);
-      v(p, i) = static_cast<real_t>(samples.velocity[3 * p + i]);
+      X(p, i) = static_cast<real_t>(samples.X[3 * q + i]);
+      v(p, i) = static_cast<real_t>(samples.velocity[3 * q + i]);
       for (int j = 0; j < 3; ++j) {
         F(p, i, j) = i == j ? real_t(1) : real_t(0);
         C(p, i, j) = scene.transfer == TransferKind::APIC ? static_cast<real_t>(spin[i][j]) : real_t(0);
       }
     }
-    mass(p) = static_cast<real_t>(samples.mass[p]);
-    volume(p) = static_cast<real_t>(samples.volume[p]);
+    mass(p) = static_cast<real_t>(samples.mass[q]);
+    volume(p) = static_cast<real_t>(samples.volume[q]);
   }
   for (int k = 0; k < num_forces; ++k) {
     double region_mass = 0;
@@ -113,10 +155,11 @@ FomSolver::FomSolver(const Scene& scene, P2GStrategy strategy)
     if (region_mass <= 0)
       throw std::runtime_error("[[force]] " + std::to_string(k + 1) +
                                " acts on no material point: its region is empty");
-    for (std::size_t p = 0; p < n; ++p) {
+    for (std::size_t slot = 0; slot < n; ++slot) {
+      const std::size_t q = sample_of_slot_[slot];
       const bool inside =
-          scene.forces[k].region.contains({samples.X[3 * p], samples.X[3 * p + 1], samples.X[3 * p + 2]});
-      share(p, k) = inside ? static_cast<real_t>(samples.mass[p] / region_mass) : real_t(0);
+          scene.forces[k].region.contains({samples.X[3 * q], samples.X[3 * q + 1], samples.X[3 * q + 2]});
+      share(slot, k) = inside ? static_cast<real_t>(samples.mass[q] / region_mass) : real_t(0);
     }
   }
   Kokkos::deep_copy(particles_.X, X);
@@ -131,7 +174,7 @@ FomSolver::FomSolver(const Scene& scene, P2GStrategy strategy)
   real_t speed = 0;
   for (std::size_t p = 0; p < n; ++p) {
     speed = std::max(speed, static_cast<real_t>(std::sqrt(v(p, 0) * v(p, 0) + v(p, 1) * v(p, 1) + v(p, 2) * v(p, 2))));
-    total_mass_ += samples.mass[p];
+    total_mass_ += samples.mass[sample_of_slot_[p]];
   }
   max_speed_ = speed;
   initial_energy_ = energy().total();
@@ -174,29 +217,35 @@ void FomSolver::step(double dt) {
                                         apic,       outside_};
 
   Kokkos::deep_copy(space, nodes_, real_t(0));
-  if (strategy_ == P2GStrategy::Atomic)
-    p2g_atomic(space, kernel, nodes_);
-  else
-    p2g_scatter(space, kernel, scatter_, nodes_);
-  const double grid_work = grid_update(space, nodes_, grid_, gravity, boundary, static_cast<real_t>(dt));
-  max_speed_ = g2p(space, particles_, nodes_, grid_, static_cast<real_t>(dt), apic, problems_);
-  const double force_work = dt * external_force_power(space, particles_, external);
+  switch (strategy_) {
+    case P2GStrategy::Atomic: p2g_atomic(space, kernel, nodes_); break;
+    case P2GStrategy::ScatterView: p2g_scatter(space, kernel, scatter_, nodes_); break;
+    case P2GStrategy::Tiled: p2g_tiled(space, kernel, nodes_, tiling_); break;
+  }
+  grid_update(space, nodes_, grid_, gravity, boundary, static_cast<real_t>(dt), step_grid_work_);
+  g2p(space, particles_, nodes_, grid_, static_cast<real_t>(dt), apic, problems_, step_max_speed_);
+  external_force_power(space, particles_, external, step_force_power_);
+  collect_step_diagnostics(space, outside_, problems_, step_max_speed_, step_grid_work_, step_force_power_,
+                           step_diagnostics_);
+  Kokkos::deep_copy(step_diagnostics_host_, step_diagnostics_);  // the step's one wait
+  const auto& diagnostics = step_diagnostics_host_;
+  max_speed_ = static_cast<real_t>(diagnostics(step_max_speed));
+  const double grid_work = diagnostics(step_grid_work), force_work = dt * diagnostics(step_force_power);
 
   const auto fail = [&](FomFailureCause cause, const std::string& detail) {
     throw SimulationFailure(cause, steps_ + 1, time_, detail);
   };
-  int outside = 0;
-  Kokkos::deep_copy(outside, outside_);
-  if (outside > 0)
-    fail(FomFailureCause::LeftGrid, std::to_string(outside) + " material points left the grid; enlarge [grid] lo/hi");
-  auto problems = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), problems_);
+  const auto count = [&](StepDiagnostic which) { return static_cast<long>(diagnostics(which)); };
+  if (count(step_outside) > 0)
+    fail(FomFailureCause::LeftGrid,
+         std::to_string(count(step_outside)) + " material points left the grid; enlarge [grid] lo/hi");
   const auto too_long = [dt]() { return " (a step of " + std::to_string(dt) + " s; lower [time] cfl or set max_cfl)"; };
-  if (problems(problem_not_finite) > 0)
-    fail(FomFailureCause::NotFinite, std::to_string(problems(problem_not_finite)) +
+  if (count(step_not_finite) > 0)
+    fail(FomFailureCause::NotFinite, std::to_string(count(step_not_finite)) +
                                          " material points have a non-finite velocity, position or det F" + too_long());
-  if (problems(problem_inverted) > 0)
+  if (count(step_inverted) > 0)
     fail(FomFailureCause::Inverted,
-         std::to_string(problems(problem_inverted)) + " material points inverted (det F <= 0)" + too_long());
+         std::to_string(count(step_inverted)) + " material points inverted (det F <= 0)" + too_long());
   // Only work put in counts: the budget must not shrink when the boundaries take energy out.
   work_in_ += std::max(0.0, grid_work + force_work);
   // Every 16 steps, or as soon as the fastest point alone could carry more kinetic energy than the limit.
@@ -248,10 +297,11 @@ void FomSolver::reference(std::vector<real_t>& X, std::vector<real_t>& mass, std
   X.resize(3 * n);
   mass.resize(n);
   volume.resize(n);
-  for (std::size_t p = 0; p < n; ++p) {
-    for (int d = 0; d < 3; ++d) X[3 * p + d] = hX(p, d);
-    mass[p] = hm(p);
-    volume[p] = hV(p);
+  for (std::size_t slot = 0; slot < n; ++slot) {
+    const std::size_t p = sample_of_slot_[slot];
+    for (int d = 0; d < 3; ++d) X[3 * p + d] = hX(slot, d);
+    mass[p] = hm(slot);
+    volume[p] = hV(slot);
   }
 }
 
@@ -267,15 +317,17 @@ ParticleFrame FomSolver::frame() const {
   f.v.resize(3 * n);
   f.F.resize(9 * n);
   f.C.resize(9 * n);
-  for (std::size_t p = 0; p < n; ++p)
+  for (std::size_t slot = 0; slot < n; ++slot) {
+    const std::size_t p = sample_of_slot_[slot];
     for (int i = 0; i < 3; ++i) {
-      f.x[3 * p + i] = hx(p, i);
-      f.v[3 * p + i] = hv(p, i);
+      f.x[3 * p + i] = hx(slot, i);
+      f.v[3 * p + i] = hv(slot, i);
       for (int j = 0; j < 3; ++j) {
-        f.F[9 * p + 3 * i + j] = hF(p, i, j);
-        f.C[9 * p + 3 * i + j] = hC(p, i, j);
+        f.F[9 * p + 3 * i + j] = hF(slot, i, j);
+        f.C[9 * p + 3 * i + j] = hC(slot, i, j);
       }
     }
+  }
   return f;
 }
 

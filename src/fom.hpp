@@ -9,6 +9,7 @@
 #include "kernels/grid_update.hpp"
 #include "kernels/energy.hpp"
 #include "kernels/p2g.hpp"
+#include "kernels/step_diagnostics.hpp"
 #include "scene.hpp"
 
 namespace mpmrom {
@@ -45,7 +46,7 @@ class SimulationFailure : public std::runtime_error {
 
 // The P2G accumulation a run gets unless it asks: per-thread grid copies summed in a fixed order on host backends
 // (bitwise reproducible for a given thread count, and the faster one on a few cores; they cost threads x grid
-// memory), atomics on devices.
+// memory), scratch-memory tiles on devices.
 P2GStrategy default_p2g_strategy();
 
 class FomSolver {
@@ -53,13 +54,18 @@ class FomSolver {
   using ExecutionSpace = Kokkos::DefaultExecutionSpace;
   using MemorySpace = ExecutionSpace::memory_space;
 
-  explicit FomSolver(const Scene& scene, P2GStrategy strategy = default_p2g_strategy());
+  // Material points are stored brick by brick (4^3 cells, cells in order inside each brick) so that neighbours in
+  // memory are neighbours on the grid; reference() and frame() return them in the scene's sampling order.
+  explicit FomSolver(const Scene& scene, P2GStrategy strategy = default_p2g_strategy(),
+                     const P2GTiling& tiling = default_p2g_tiling<Kokkos::DefaultExecutionSpace>());
 
   double time() const { return time_; }
   long steps() const { return steps_; }
   std::size_t num_particles() const { return particles_.size(); }
   const GridGeometry<real_t>& grid() const { return grid_; }
+  // The fields in storage order: point s of these Views is point sample_index(s) of the scene.
   const ParticleViews<MemorySpace>& particles() const { return particles_; }
+  std::size_t sample_index(std::size_t s) const { return sample_of_slot_[s]; }
   const GridNodeView<MemorySpace>& grid_nodes() const { return nodes_; }
 
   // The CFL-limited time step: cfl * dx / (P-wave speed + fastest particle).
@@ -88,14 +94,21 @@ class FomSolver {
 
   Scene scene_;
   P2GStrategy strategy_;
+  P2GTiling tiling_;
   GridGeometry<real_t> grid_;
   ElasticMaterial<real_t> material_;
   real_t wave_speed_;
   ParticleViews<MemorySpace> particles_;
   GridNodeView<MemorySpace> nodes_;
   GridScatterView<ExecutionSpace, MemorySpace> scatter_;
+  std::vector<std::size_t> sample_of_slot_;
   Kokkos::View<int, MemorySpace> outside_;
   ParticleProblemCounts<MemorySpace> problems_;
+  // Each step's reductions land on the device and come back in one copy, so the host waits once per step.
+  Kokkos::View<real_t, MemorySpace> step_max_speed_;
+  Kokkos::View<double, MemorySpace> step_grid_work_, step_force_power_;
+  StepDiagnostics<MemorySpace> step_diagnostics_;
+  StepDiagnostics<Kokkos::HostSpace> step_diagnostics_host_;
   double total_mass_ = 0;
   double initial_energy_ = 0, work_in_ = 0;
   long safeguarded_steps_ = 0;

@@ -494,6 +494,7 @@ Model train_model(const TrainingData& data, const TrainingSettings& settings, co
   }
   model.errors = {{"train", to_json(train_all.metrics())},
                   {"training_seconds", seconds_since(start)},
+                  {"training_samples_per_s", final.samples_per_second},  // the epochs alone, validation included
                   {"final_loss", {{"train", final.train.total}, {"validation", final.validation.total}}}};
   if (!validation_points.empty()) model.errors["validation_points"] = to_json(train_validation.metrics());
   if (!data.test.runs.empty()) {

@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -69,14 +70,20 @@ class Resume : public ::testing::Test {
   }
   void TearDown() override { fs::remove_all(dir_); }
 
+  // The build's CLI, or MPMROM_CLI from the environment where the tests run on another machine than they were built.
+  static std::string cli() {
+    const char* from_environment = std::getenv("MPMROM_CLI");
+    return from_environment != nullptr ? from_environment : MPMROM_CLI;
+  }
   static pid_t start(const std::vector<std::string>& args) {
-    std::vector<std::string> argv_strings{MPMROM_CLI, "-q"};
+    const std::string program = cli();
+    std::vector<std::string> argv_strings{program, "-q"};
     argv_strings.insert(argv_strings.end(), args.begin(), args.end());
     std::vector<char*> argv;
     for (auto& a : argv_strings) argv.push_back(a.data());
     argv.push_back(nullptr);
     pid_t pid = 0;
-    if (posix_spawn(&pid, MPMROM_CLI, nullptr, nullptr, argv.data(), environ) != 0) return -1;
+    if (posix_spawn(&pid, program.c_str(), nullptr, nullptr, argv.data(), environ) != 0) return -1;
     return pid;
   }
   static int wait_for(pid_t pid) {

@@ -1,5 +1,6 @@
 // P2G then G2P: conservation of mass, linear and angular momentum, and exact reproduction of affine velocity fields,
-// for both accumulation strategies, on every backend.
+// for every accumulation strategy (atomic, scatter view, tiles), on every backend.
+#include <algorithm>
 #include <cmath>
 
 #include "backends.hpp"
@@ -114,25 +115,30 @@ struct TransferSetup {
   }
 
   // P2G with dt = 0 (no forces), then the grid update with dt = 0 (momentum to velocity).
-  void p2g(P2GStrategy strategy, bool apic) {
+  void p2g(P2GStrategy strategy, bool apic, const P2GTiling& tiling = default_p2g_tiling<ExecutionSpace>()) {
     const ExecutionSpace space;
     const P2GParticle<MemorySpace> kernel{particles, grid, elastic_material<real_t>(ElasticModel::FixedCorotated, 1, 0),
                                           ExternalForces{}, real_t(0), apic, outside};
     Kokkos::deep_copy(nodes, real_t(0));
-    if (strategy == P2GStrategy::Atomic) {
-      p2g_atomic(space, kernel, nodes);
-    } else {
-      GridScatterView<ExecutionSpace, MemorySpace> scatter(nodes);
-      p2g_scatter(space, kernel, scatter, nodes);
+    switch (strategy) {
+      case P2GStrategy::Atomic: p2g_atomic(space, kernel, nodes); break;
+      case P2GStrategy::ScatterView: {
+        GridScatterView<ExecutionSpace, MemorySpace> scatter(nodes);
+        p2g_scatter(space, kernel, scatter, nodes);
+        break;
+      }
+      case P2GStrategy::Tiled: p2g_tiled(space, kernel, nodes, tiling); break;
     }
     space.fence();
   }
   void update() {
-    grid_update(ExecutionSpace(), nodes, grid, Vec3<real_t>::zero(), GridBoundary{}, real_t(0));
+    Kokkos::View<double, MemorySpace> work("work");
+    grid_update(ExecutionSpace(), nodes, grid, Vec3<real_t>::zero(), GridBoundary{}, real_t(0), work);
   }
   // G2P, which must find no particle in a bad state (a finite, non-inverted input stays so at dt = 0).
   void g2p(bool apic) {
-    mpmrom::g2p(ExecutionSpace(), particles, nodes, grid, real_t(0), apic, problems);
+    Kokkos::View<real_t, MemorySpace> max_speed("max_speed");
+    mpmrom::g2p(ExecutionSpace(), particles, nodes, grid, real_t(0), apic, problems, max_speed);
     auto counts = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), problems);
     EXPECT_EQ(counts(problem_not_finite), 0);
     EXPECT_EQ(counts(problem_inverted), 0);
@@ -154,13 +160,19 @@ Totals grid_state(const TransferSetup<ExecutionSpace>& s, bool velocity) {
   return grid_totals(nodes, s.grid, velocity);
 }
 
+// Tiles shared by up to 64 particles: every team's particles (random, within 7.2 cells a side) fit in 4096 nodes.
+template <class ExecutionSpace>
+P2GTiling shared_tiles() {
+  return {default_p2g_tiling<ExecutionSpace>().team_size, 64, 4096};
+}
+
 template <class ExecutionSpace>
 void check_conservation(P2GStrategy strategy, bool apic) {
   const double A[3][3] = {{0.1, -0.7, 0.2}, {0.7, 0.0, -0.3}, {-0.2, 0.3, -0.1}}, b[3] = {0.3, -0.2, 0.5};
   const int n = 3000;
   TransferSetup<ExecutionSpace> s(n, A, b, 0.5, 3);
   const Totals particles_before = particle_state(s, apic);
-  s.p2g(strategy, apic);
+  s.p2g(strategy, apic, shared_tiles<ExecutionSpace>());
   const Totals grid_momenta = grid_state(s, false);
   s.update();
   const Totals grid_velocities = grid_state(s, true);
@@ -181,7 +193,7 @@ void check_affine_reproduced(P2GStrategy strategy) {
   const double A[3][3] = {{0.1, -0.7, 0.2}, {0.7, 0.05, -0.3}, {-0.2, 0.3, -0.1}}, b[3] = {0.3, -0.2, 0.5};
   const int n = 2000;
   TransferSetup<ExecutionSpace> s(n, A, b, 0.0, 5);
-  s.p2g(strategy, true);
+  s.p2g(strategy, true, shared_tiles<ExecutionSpace>());
   s.update();
   s.g2p(true);
   auto x = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), s.particles.x);
@@ -196,6 +208,32 @@ void check_affine_reproduced(P2GStrategy strategy) {
       EXPECT_NEAR(v(p, d), exact, 100 * eps) << "point " << p;
       for (int e = 0; e < 3; ++e) EXPECT_NEAR(C(p, d, e), A[d][e], 1000 * eps) << "point " << p;
     }
+}
+
+// Tiled P2G gives the atomic grid, to summation-order rounding, whether every team keeps a tile (one particle a
+// team: a 27-node box), many particles share one tile, or every team's box is too large and falls back to atomics.
+template <class ExecutionSpace>
+void check_tiles_match_atomics() {
+  const double A[3][3] = {{0.1, -0.7, 0.2}, {0.7, 0.0, -0.3}, {-0.2, 0.3, -0.1}}, b[3] = {0.3, -0.2, 0.5};
+  TransferSetup<ExecutionSpace> s(3000, A, b, 0.5, 7);
+  s.p2g(P2GStrategy::Atomic, true);
+  auto reference = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), s.nodes);
+  const int team_size = default_p2g_tiling<ExecutionSpace>().team_size;
+  for (const P2GTiling tiling : {P2GTiling{team_size, 1, 27}, shared_tiles<ExecutionSpace>(), P2GTiling{team_size, 64, 27}}) {
+    s.p2g(P2GStrategy::Tiled, true, tiling);
+    auto tiled = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), s.nodes);
+    // A node sums about 220 terms (8 particles a cell, 27 cells): two summation orders differ by at most
+    // 2 x 220 eps x the terms' absolute sum, which is within ~2x of the largest node value.
+    double scale = 0, worst = 0;
+    for (int node = 0; node < s.grid.num_nodes(); ++node)
+      for (int c = 0; c < 4; ++c) {
+        scale = std::max(scale, std::fabs(double(reference(node, c))));
+        worst = std::max(worst, std::fabs(double(tiled(node, c)) - double(reference(node, c))));
+      }
+    EXPECT_GT(scale, 1.0);
+    EXPECT_LE(worst, 1e3 * eps * scale) << tiling.particles_per_team << " particles a team, tiles of at most "
+                                        << tiling.max_tile_nodes << " nodes";
+  }
 }
 
 template <class ExecutionSpace>
@@ -213,6 +251,11 @@ TYPED_TEST(Transfers, ApicReproducesAffineFieldAtomic) { check_affine_reproduced
 TYPED_TEST(Transfers, ApicReproducesAffineFieldScatterView) {
   check_affine_reproduced<TypeParam>(P2GStrategy::ScatterView);
 }
+TYPED_TEST(Transfers, ApicConservesMassMomentumAngularMomentumTiled) {
+  check_conservation<TypeParam>(P2GStrategy::Tiled, true);
+}
+TYPED_TEST(Transfers, ApicReproducesAffineFieldTiled) { check_affine_reproduced<TypeParam>(P2GStrategy::Tiled); }
+TYPED_TEST(Transfers, TiledMatchesAtomicsWithEveryTileShape) { check_tiles_match_atomics<TypeParam>(); }
 
 }  // namespace
 }  // namespace mpmrom::test

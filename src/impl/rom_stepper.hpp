@@ -172,6 +172,7 @@ void step_batch(const Manifold& manifold, int latent_dim, const ReferencePoints&
   const auto start = Clock::now();
   double time = 0;
   real_t max_speed = 0;
+  Kokkos::View<real_t, MemorySpace> fastest_sample("mpmrom::rom::fastest_sample");
   result.times.push_back(0.0);
   record(0);
   for (int frame = 1; frame < frames; ++frame) {
@@ -211,11 +212,11 @@ void step_batch(const Manifold& manifold, int latent_dim, const ReferencePoints&
                            Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>>(space, 0, long(B) * I),
                            rom::GatherNodeVelocities<MemorySpace>{grid, nodes, offsets, node_sources, sources, loads,
                                                                   t, dt, node_v});
-      real_t speed = 0;
+      // Into a device View: only the last sub-step's speed is read (at the frame's end), so sub-steps never wait.
       Kokkos::parallel_reduce(
           "mpmrom::rom::g2p_samples", Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>>(space, 0, long(B) * S),
           rom::SampleVelocities<MemorySpace>{grid, node_slot, sample_x, node_v, sample_v, flags},
-          Kokkos::Max<real_t>(speed));
+          Kokkos::Max<real_t, MemorySpace>(fastest_sample));
       using Projection = rom::ProjectVelocities<ExecutionSpace, MemorySpace>;
       const auto project = [&]() {
         Kokkos::parallel_for("mpmrom::rom::project",
@@ -239,11 +240,11 @@ void step_batch(const Manifold& manifold, int latent_dim, const ReferencePoints&
       }
       Kokkos::deep_copy(space, xhat, xhat_next);
       Kokkos::deep_copy(space, xhatdot, xhatdot_next);
-      max_speed = speed;
       time = sub + 1 == substeps ? target : time + dt_interval;
       ++result.steps;
     }
     if (all_stopped) time = target;
+    if (substeps > 0) Kokkos::deep_copy(max_speed, fastest_sample);
     check_flags(time);
     result.times.push_back(target);
     record(frame);
