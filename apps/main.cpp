@@ -35,8 +35,8 @@ const std::map<std::string, mpmrom::P2GStrategy> kP2GStrategies{{"atomic", mpmro
                                                                    {"scatter", mpmrom::P2GStrategy::ScatterView},
                                                                    {"tiled", mpmrom::P2GStrategy::Tiled}};
 const char* const kP2GHelp =
-    "Particle-to-grid accumulation: scatter (per-thread grid copies; bitwise reproducible; default on CPUs), tiled "
-    "(teams sum into shared-memory tiles, then the grid; default on GPUs) or atomic (straight into the grid)";
+    "Particle-to-grid accumulation: scatter (per-thread grid copies; bitwise reproducible; default on CPUs), atomic "
+    "(straight into the grid; default on GPUs) or tiled (teams sum into shared-memory tiles, then the grid)";
 
 std::string p2g_name(mpmrom::P2GStrategy strategy) {
   for (const auto& [name, value] : kP2GStrategies)
@@ -399,6 +399,11 @@ int main(int argc, char** argv) {
   bench_fom->add_option("--tile-nodes", tiling.max_tile_nodes, "Tiled P2G: largest tile (nodes) a team keeps in scratch")
       ->capture_default_str()
       ->check(CLI::Range(27, 1 << 20));
+  mpmrom::ParticleOrder particle_order = mpmrom::default_particle_order();
+  const std::map<std::string, mpmrom::ParticleOrder> particle_orders{{"sampling", mpmrom::ParticleOrder::Sampling},
+                                                                     {"bricks", mpmrom::ParticleOrder::Bricks}};
+  bench_fom->add_option("--order", particle_order, "How particles are stored: sampling (the scene's order) or bricks")
+      ->transform(CLI::CheckedTransformer(particle_orders, CLI::ignore_case));
   bench_fom->add_flag("--json", bench_json, "One JSON record on stdout");
   bench_fom->footer("Example: mpmrom bench fom scenes/cylinder_1e6.toml --p2g scatter --json");
 
@@ -643,9 +648,10 @@ int main(int argc, char** argv) {
     }
     if (*bench_fom) {
       const mpmrom::Scene scene = mpmrom::load_scene(scene_path, overrides);
-      const auto result = mpmrom::bench_fom(scene, p2g, tiling, bench_steps, bench_warmup);
+      const auto result = mpmrom::bench_fom(scene, p2g, tiling, particle_order, bench_steps, bench_warmup);
       auto record = mpmrom::benchmark_record("fom_step", scene.name);
       record["p2g"] = p2g_name(p2g);
+      record["particle_order"] = particle_order == mpmrom::ParticleOrder::Bricks ? "bricks" : "sampling";
       if (p2g == mpmrom::P2GStrategy::Tiled)
         record["p2g_tiling"] = {{"team_size", tiling.team_size},
                                 {"particles_per_team", tiling.particles_per_team},

@@ -4,7 +4,7 @@
 // with tau = P F^T the Kirchhoff stress. Three interchangeable accumulation strategies: atomics on the grid; a Kokkos
 // ScatterView (duplicated per thread on CPUs, atomic on GPUs); or tiles: a team sums its particles into a box of
 // nodes in scratch (shared) memory, then adds the box to the grid, so that particles stored near each other (the
-// FOM stores them brick by brick) cost a few global atomics per node instead of one per particle and node.
+// FOM can store them brick by brick) cost a few global atomics per node instead of one per particle and node.
 // Parallelism: one thread per particle (atomic, scatter view); a team per block of consecutive particles (tiles).
 #pragma once
 
@@ -144,7 +144,7 @@ struct P2GTiling {
 };
 
 // One thread a team on host backends (the tile is then a per-thread cache of the grid); on GPUs 128 threads over 256
-// particles, which the FOM's brick order (4^3 cells, about 512 particles) packs into about 4 x 6 x 6 nodes. The
+// particles, which the FOM's brick order (4^3 cells of about 8 particles) keeps inside one brick's 6^3 nodes. The
 // tile limit keeps the scratch at 16 kB in float (32 kB in double), well inside a GPU block's shared memory.
 template <class ExecutionSpace>
 P2GTiling default_p2g_tiling() {

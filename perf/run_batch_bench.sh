@@ -6,7 +6,8 @@
 # Usage: perf/run_batch_bench.sh BUILD_DIR MODEL SCENE [BATCHES] [END_TIME]
 #   BATCHES: space-separated batch sizes (default "1 10 100 1000 10000 100000")
 #   CONFIGS="point:15 node:15" (method:samples) picks the configurations; SUFFIX (e.g. _h200) tags the file names;
-#   RESULTS (default perf/results) is where the records go.
+#   RESULTS (default perf/results) is where the records go; TIMEOUT (seconds) bounds each batch's run (a batch that
+#   runs out of time is recorded as an error).
 set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 build=${1:?usage: run_batch_bench.sh BUILD_DIR MODEL SCENE [BATCHES] [END_TIME]}
@@ -30,8 +31,9 @@ for config in $configs; do
   : > "$records"
   for batch in $batches; do
     python3 "$here/perf/design_params.py" "$scene" "$batch" "$work/params.csv"
-    if ! "$mpmrom" -q rollout "$model" "$scene" --out "$work/rom.h5" --method "$method" --samples "$n" \
+    if ! ${TIMEOUT:+timeout "$TIMEOUT"} "$mpmrom" -q rollout "$model" "$scene" --out "$work/rom.h5" --method "$method" --samples "$n" \
         --params "$work/params.csv" --end-time "$end_time" --json >> "$records" 2> "$work/err"; then
+      [ -s "$work/err" ] || echo "no result within ${TIMEOUT:-?} s" > "$work/err"
       echo "batch $batch ($method, $n samples) failed: $(tail -1 "$work/err")" >&2
       echo "{\"rollouts\": $batch, \"error\": $(tail -1 "$work/err" | python3 -c 'import json,sys; print(json.dumps(sys.stdin.read().strip()))')}" >> "$records"
       continue

@@ -6,8 +6,9 @@
 
 namespace mpmrom {
 
-FomBenchmark bench_fom(const Scene& scene, P2GStrategy strategy, const P2GTiling& tiling, long steps, long warmup) {
-  FomSolver solver(scene, strategy, tiling);
+FomBenchmark bench_fom(const Scene& scene, P2GStrategy strategy, const P2GTiling& tiling, ParticleOrder order,
+                       long steps, long warmup) {
+  FomSolver solver(scene, strategy, tiling, order);
   const double dt = solver.stable_time_step();
   for (long s = 0; s < warmup; ++s) solver.step(dt);
   Kokkos::fence();

@@ -23,7 +23,8 @@ struct FomBenchmark {
 };
 
 // Runs `warmup` untimed steps, then `steps` timed steps of the scene at its CFL time step.
-FomBenchmark bench_fom(const Scene& scene, P2GStrategy strategy, const P2GTiling& tiling, long steps, long warmup);
+FomBenchmark bench_fom(const Scene& scene, P2GStrategy strategy, const P2GTiling& tiling, ParticleOrder order,
+                       long steps, long warmup);
 
 struct NnBenchmarkSettings {
   int latent_dim = 5, width = 48, depth = 5;

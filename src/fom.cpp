@@ -62,39 +62,54 @@ ElasticMaterial<real_t> material_for_scene(const Scene& scene) {
 
 P2GStrategy default_p2g_strategy() {
   return Kokkos::SpaceAccessibility<Kokkos::HostSpace, FomSolver::MemorySpace>::accessible ? P2GStrategy::ScatterView
-                                                                                          : P2GStrategy::Tiled;
+                                                                                          : P2GStrategy::Atomic;
 }
 
 namespace {
 
-// Sample indices in storage order: by brick of 4^3 cells (bricks in grid order), then by cell inside the brick, then
-// in sampling order (a stable sort: the order is the same on every machine).
+// Sample indices in storage order: brick by brick (4^3 cells, bricks in grid order); inside a brick, the first point
+// of each of its cells, then the second of each, and so on. A GPU team's particles then share a brick's 6^3 nodes,
+// and the 32 threads of a warp sit in 32 different cells, so no two of them add to the same node at once.
+// Stable in sampling order, so the order is the same on every machine.
 std::vector<std::size_t> brick_order(const std::vector<double>& X, const GridGeometry<real_t>& grid) {
-  constexpr int kBrick = 4;
+  constexpr int kBrick = 4, kCellsPerBrick = kBrick * kBrick * kBrick;
   const std::size_t n = X.size() / 3;
   int bricks[3];
   for (int d = 0; d < 3; ++d) bricks[d] = (grid.dims[d] + kBrick - 1) / kBrick;
-  std::vector<std::uint64_t> key(n);
+  std::vector<std::uint64_t> brick(n), cell(n), rank(n, 0);
   for (std::size_t p = 0; p < n; ++p) {
-    int brick[3], cell[3];
+    int b[3], c[3];
     for (int d = 0; d < 3; ++d) {
-      const double c = std::floor((X[3 * p + d] - double(grid.origin[d])) / double(grid.dx));
-      const int clamped = static_cast<int>(std::min(std::max(c, 0.0), double(grid.dims[d] - 1)));
-      brick[d] = clamped / kBrick;
-      cell[d] = clamped % kBrick;
+      const double at = std::floor((X[3 * p + d] - double(grid.origin[d])) / double(grid.dx));
+      const int clamped = static_cast<int>(std::min(std::max(at, 0.0), double(grid.dims[d] - 1)));
+      b[d] = clamped / kBrick;
+      c[d] = clamped % kBrick;
     }
-    const std::uint64_t brick_index = (std::uint64_t(brick[0]) * bricks[1] + brick[1]) * bricks[2] + brick[2];
-    key[p] = brick_index * (kBrick * kBrick * kBrick) + (cell[0] * kBrick + cell[1]) * kBrick + cell[2];
+    brick[p] = (std::uint64_t(b[0]) * bricks[1] + b[1]) * bricks[2] + b[2];
+    cell[p] = (c[0] * kBrick + c[1]) * kBrick + c[2];
   }
   std::vector<std::size_t> order(n);
   std::iota(order.begin(), order.end(), std::size_t(0));
-  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return key[a] < key[b]; });
+  const auto by_cell = [&](std::size_t a, std::size_t b) {
+    return brick[a] * kCellsPerBrick + cell[a] < brick[b] * kCellsPerBrick + cell[b];
+  };
+  std::stable_sort(order.begin(), order.end(), by_cell);
+  for (std::size_t i = 1; i < n; ++i)  // each point's rank among the points of its cell
+    if (!by_cell(order[i - 1], order[i])) rank[order[i]] = rank[order[i - 1]] + 1;
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    if (brick[a] != brick[b]) return brick[a] < brick[b];
+    if (rank[a] != rank[b]) return rank[a] < rank[b];
+    return cell[a] < cell[b];
+  });
   return order;
 }
 
 }  // namespace
 
-FomSolver::FomSolver(const Scene& scene, P2GStrategy strategy, const P2GTiling& tiling)
+// Lattice bodies come line by line along z, which is what GPU atomics like best (perf/README.md: bricks were slower).
+ParticleOrder default_particle_order() { return ParticleOrder::Sampling; }
+
+FomSolver::FomSolver(const Scene& scene, P2GStrategy strategy, const P2GTiling& tiling, ParticleOrder order)
     : scene_(scene),
       strategy_(strategy),
       tiling_(tiling),
@@ -118,7 +133,12 @@ FomSolver::FomSolver(const Scene& scene, P2GStrategy strategy, const P2GTiling& 
 
   const ParticleSamples samples = sample_scene(scene);
   const std::size_t n = samples.size();
-  sample_of_slot_ = brick_order(samples.X, grid_);
+  if (order == ParticleOrder::Bricks) {
+    sample_of_slot_ = brick_order(samples.X, grid_);
+  } else {
+    sample_of_slot_.resize(n);
+    std::iota(sample_of_slot_.begin(), sample_of_slot_.end(), std::size_t(0));
+  }
   const int num_forces = static_cast<int>(scene.forces.size());
   particles_ = ParticleViews<MemorySpace>(n, num_forces);
   nodes_ = GridNodeView<MemorySpace>("mpmrom::fom::grid_nodes", grid_.num_nodes());

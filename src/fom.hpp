@@ -46,18 +46,23 @@ class SimulationFailure : public std::runtime_error {
 
 // The P2G accumulation a run gets unless it asks: per-thread grid copies summed in a fixed order on host backends
 // (bitwise reproducible for a given thread count, and the faster one on a few cores; they cost threads x grid
-// memory), scratch-memory tiles on devices.
+// memory), atomics on devices (faster there than scratch-memory tiles on the lattice-ordered cylinders measured).
 P2GStrategy default_p2g_strategy();
+
+// How the FOM stores its material points: in the scene's sampling order (a lattice body line by line along z), or
+// brick by brick (4^3 cells; inside a brick the first point of every cell, then the second, ...), which keeps
+// a GPU team's particles inside one brick's nodes. Outputs are in sampling order either way.
+enum class ParticleOrder { Sampling, Bricks };
+ParticleOrder default_particle_order();
 
 class FomSolver {
  public:
   using ExecutionSpace = Kokkos::DefaultExecutionSpace;
   using MemorySpace = ExecutionSpace::memory_space;
 
-  // Material points are stored brick by brick (4^3 cells, cells in order inside each brick) so that neighbours in
-  // memory are neighbours on the grid; reference() and frame() return them in the scene's sampling order.
   explicit FomSolver(const Scene& scene, P2GStrategy strategy = default_p2g_strategy(),
-                     const P2GTiling& tiling = default_p2g_tiling<Kokkos::DefaultExecutionSpace>());
+                     const P2GTiling& tiling = default_p2g_tiling<Kokkos::DefaultExecutionSpace>(),
+                     ParticleOrder order = default_particle_order());
 
   double time() const { return time_; }
   long steps() const { return steps_; }

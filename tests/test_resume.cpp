@@ -6,8 +6,12 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <Kokkos_Core.hpp>
+
 #include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <limits>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -109,13 +113,33 @@ class Resume : public ::testing::Test {
   std::string scene_;
 };
 
+// Host backends sum P2G in a fixed order, so equal inputs give bitwise-equal runs. GPUs sum it with atomics in
+// arrival order (docs/reliability.md): runs then differ by round-off, which grows over the ~93 steps of these runs
+// to well below 1e3 eps of the field's largest value (each step adds a few eps; the elastic block does not amplify).
+const bool kBitwiseRuns =
+    Kokkos::SpaceAccessibility<Kokkos::HostSpace, Kokkos::DefaultExecutionSpace::memory_space>::accessible;
+
+void expect_same_field(const std::vector<double>& x, const std::vector<double>& y, const std::string& what) {
+  if (kBitwiseRuns) {
+    EXPECT_EQ(x, y) << what;
+    return;
+  }
+  ASSERT_EQ(x.size(), y.size()) << what;
+  double scale = 0, worst = 0;
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    scale = std::max(scale, std::fabs(x[i]));
+    worst = std::max(worst, std::fabs(x[i] - y[i]));
+  }
+  EXPECT_LE(worst, 1e3 * std::numeric_limits<real_t>::epsilon() * scale) << what;
+}
+
 void expect_same_run(const std::string& a, const std::string& b) {
   const Snapshot x = read_snapshot(a), y = read_snapshot(b);
   EXPECT_EQ(x.time, y.time) << a;
-  EXPECT_EQ(x.x, y.x) << a;
-  EXPECT_EQ(x.v, y.v) << a;
-  EXPECT_EQ(x.F, y.F) << a;
-  EXPECT_EQ(x.C, y.C) << a;
+  expect_same_field(x.x, y.x, a + ": x");
+  expect_same_field(x.v, y.v, a + ": v");
+  expect_same_field(x.F, y.F, a + ": F");
+  expect_same_field(x.C, y.C, a + ": C");
 }
 
 std::vector<fs::path> run_files(const fs::path& sweep) {

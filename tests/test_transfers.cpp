@@ -160,10 +160,11 @@ Totals grid_state(const TransferSetup<ExecutionSpace>& s, bool velocity) {
   return grid_totals(nodes, s.grid, velocity);
 }
 
-// Tiles shared by up to 64 particles: every team's particles (random, within 7.2 cells a side) fit in 4096 nodes.
+// Tiles shared by 64 particles: the particles' stencils start at nodes 3..11 of each axis, so any team's box fits in
+// 11^3 = 1331 nodes (42.6 kB in double: inside a GPU block's default 48 kB of shared memory).
 template <class ExecutionSpace>
 P2GTiling shared_tiles() {
-  return {default_p2g_tiling<ExecutionSpace>().team_size, 64, 4096};
+  return {default_p2g_tiling<ExecutionSpace>().team_size, 64, 1331};
 }
 
 template <class ExecutionSpace>
