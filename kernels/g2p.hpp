@@ -19,9 +19,9 @@ template <class MemorySpace>
 using ParticleProblemCounts = Kokkos::View<int[num_particle_problems], MemorySpace>;
 
 template <class ExecutionSpace, class MemorySpace>
-void g2p(const ExecutionSpace& space, const ParticleViews<MemorySpace>& particles, const GridNodeView<MemorySpace>& nodes,
-         const GridGeometry<real_t>& grid, real_t dt, bool apic, const ParticleProblemCounts<MemorySpace>& problems,
-         const Kokkos::View<real_t, MemorySpace>& max_speed) {
+void g2p(const ExecutionSpace& space, const ParticleViews<MemorySpace>& particles,
+         const GridNodeView<MemorySpace>& nodes, const GridGeometry<real_t>& grid, real_t dt, bool apic,
+         const ParticleProblemCounts<MemorySpace>& problems, const Kokkos::View<real_t, MemorySpace>& max_speed) {
   // D_p^{-1} = 4 / dx^2 for quadratic B-splines (Jiang et al. 2015).
   const real_t inverse_inertia = real_t(4) * grid.inv_dx * grid.inv_dx;
   Kokkos::parallel_reduce(

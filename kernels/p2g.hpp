@@ -98,6 +98,11 @@ struct TileGridAdd {
   KOKKOS_INLINE_FUNCTION int local(const int ijk[3]) const {
     return ((ijk[0] - lo[0]) * extent[1] + (ijk[1] - lo[1])) * extent[2] + (ijk[2] - lo[2]);
   }
+  // The grid node of tile entry l: the inverse of local().
+  KOKKOS_INLINE_FUNCTION int grid_node(int l, const GridGeometry<real_t>& grid) const {
+    const int k = l % extent[2], j = (l / extent[2]) % extent[1], i = l / (extent[1] * extent[2]);
+    return grid.index(lo[0] + i, lo[1] + j, lo[2] + k);
+  }
   KOKKOS_INLINE_FUNCTION void operator()(int, const int ijk[3], real_t mass, const Vec3<real_t>& momentum) const {
     const int l = local(ijk);
     Kokkos::atomic_add(&tile(l), mass);
@@ -148,14 +153,15 @@ struct P2GTiling {
 // tile limit keeps the scratch at 16 kB in float (32 kB in double), well inside a GPU block's shared memory.
 template <class ExecutionSpace>
 P2GTiling default_p2g_tiling() {
-  constexpr bool host = Kokkos::SpaceAccessibility<Kokkos::HostSpace, typename ExecutionSpace::memory_space>::accessible;
+  using Memory = typename ExecutionSpace::memory_space;
+  constexpr bool host = Kokkos::SpaceAccessibility<Kokkos::HostSpace, Memory>::accessible;
   return host ? P2GTiling{1, 256, 1024} : P2GTiling{128, 256, 1024};
 }
 
 // P2G through team scratch tiles into `nodes`, which the caller has zeroed.
 template <class ExecutionSpace, class MemorySpace>
-void p2g_tiled(const ExecutionSpace& space, const P2GParticle<MemorySpace>& kernel, const GridNodeView<MemorySpace>& nodes,
-               const P2GTiling& tiling) {
+void p2g_tiled(const ExecutionSpace& space, const P2GParticle<MemorySpace>& kernel,
+               const GridNodeView<MemorySpace>& nodes, const P2GTiling& tiling) {
   using Policy = Kokkos::TeamPolicy<ExecutionSpace>;
   using Member = typename Policy::member_type;
   using ScratchSpace = typename ExecutionSpace::scratch_memory_space;
@@ -215,8 +221,7 @@ void p2g_tiled(const ExecutionSpace& space, const P2GParticle<MemorySpace>& kern
                                        add.tile(3 * add.volume + l)}};
           if (mass == real_t(0) && momentum[0] == real_t(0) && momentum[1] == real_t(0) && momentum[2] == real_t(0))
             return;
-          const int k = l % add.extent[2], j = (l / add.extent[2]) % add.extent[1], i = l / (add.extent[1] * add.extent[2]);
-          global_add(grid.index(add.lo[0] + i, add.lo[1] + j, add.lo[2] + k), nullptr, mass, momentum);
+          global_add(add.grid_node(l, grid), nullptr, mass, momentum);
         });
       });
 }

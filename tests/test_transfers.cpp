@@ -220,7 +220,8 @@ void check_tiles_match_atomics() {
   s.p2g(P2GStrategy::Atomic, true);
   auto reference = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), s.nodes);
   const int team_size = default_p2g_tiling<ExecutionSpace>().team_size;
-  for (const P2GTiling tiling : {P2GTiling{team_size, 1, 27}, shared_tiles<ExecutionSpace>(), P2GTiling{team_size, 64, 27}}) {
+  const P2GTiling every_team_tiles{team_size, 1, 27}, every_team_falls_back{team_size, 64, 27};
+  for (const P2GTiling tiling : {every_team_tiles, shared_tiles<ExecutionSpace>(), every_team_falls_back}) {
     s.p2g(P2GStrategy::Tiled, true, tiling);
     auto tiled = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), s.nodes);
     // A node sums about 220 terms (8 particles a cell, 27 cells): two summation orders differ by at most
