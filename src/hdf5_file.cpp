@@ -69,6 +69,16 @@ Handle variable_string_type(const Object& object) {
   return type;
 }
 
+// UTF-8 strings of `width` bytes, NUL-padded (a string of exactly `width` bytes has no terminator).
+Handle fixed_string_type(const std::string& file_name, const std::string& what, std::size_t width) {
+  Handle type(H5Tcopy(H5T_C_S1));
+  if (!type.is_open() || H5Tset_size(type.get(), width) < 0 || H5Tset_strpad(type.get(), H5T_STR_NULLPAD) < 0 ||
+      H5Tset_cset(type.get(), H5T_CSET_UTF8) < 0) {
+    fail(file_name, "make", "a string type for " + what);
+  }
+  return type;
+}
+
 void write_attribute(const Object& object, const std::string& name, hid_t type, hid_t space, const void* data) {
   const std::string what = attribute_name(object, name);
   const htri_t exists = H5Aexists(object.id(), name.c_str());
@@ -271,6 +281,33 @@ std::vector<double> Dataset::read() const {
   return values;
 }
 
+std::vector<std::string> Dataset::read_strings() const {
+  const Handle stored_type(H5Dget_type(id()));
+  if (!stored_type.is_open()) fail(file_name_, "inspect", "dataset " + path_);
+  if (H5Tget_class(stored_type.get()) != H5T_STRING || H5Tis_variable_str(stored_type.get()) != 0) {
+    refuse(file_name_, "dataset " + path_, "is not a list of fixed-length strings");
+  }
+  const auto dims = dataset_dims(*this, Handle(H5Dget_space(id())));
+  if (dims.size() != 1) refuse(file_name_, "dataset " + path_, "is not a vector of strings");
+  const std::size_t width = H5Tget_size(stored_type.get());
+  if (width == 0) fail(file_name_, "inspect", "dataset " + path_);
+  // The stored bytes bound the allocation: a damaged shape cannot make this reader ask for more than the file holds.
+  if (H5Dget_storage_size(id()) < dims[0] * width) refuse(file_name_, "dataset " + path_, "is truncated or unwritten");
+  // Read through the same width with NUL padding, whatever padding the file declares.
+  const Handle type = fixed_string_type(file_name_, "dataset " + path_, width);
+  std::vector<char> buffer(dims[0] * width);
+  if (!buffer.empty() && H5Dread(id(), type.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, buffer.data()) < 0) {
+    fail(file_name_, "read", "dataset " + path_);
+  }
+  std::vector<std::string> values;
+  values.reserve(dims[0]);
+  for (std::size_t i = 0; i < dims[0]; ++i) {
+    const char* entry = buffer.data() + i * width;
+    values.emplace_back(entry, std::find(entry, entry + width, '\0'));
+  }
+  return values;
+}
+
 Group Group::create_group(const std::string& name) {
   Handle handle(H5Gcreate2(id(), name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT));
   if (!handle.is_open()) fail(file_name_, "create", "group " + child_path(name));
@@ -290,6 +327,22 @@ Dataset Group::create_dataset(const std::string& name, Element type, const std::
   const Handle space(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr));
   Handle dataset(H5Dcreate2(id(), name.c_str(), file_type(type), space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT));
   if (!dataset.is_open()) fail(file_name_, "create", "dataset " + child_path(name));
+  return Dataset(std::move(dataset), file_name_, child_path(name));
+}
+
+Dataset Group::create_string_list(const std::string& name, const std::vector<std::string>& values) {
+  std::size_t width = 1;  // HDF5 has no zero-length string type
+  for (const auto& value : values) width = std::max(width, value.size());
+  const Handle type = fixed_string_type(file_name_, "dataset " + child_path(name), width);
+  const hsize_t count = values.size();
+  const Handle space(H5Screate_simple(1, &count, nullptr));
+  Handle dataset(H5Dcreate2(id(), name.c_str(), type.get(), space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT));
+  if (!dataset.is_open()) fail(file_name_, "create", "dataset " + child_path(name));
+  std::vector<char> buffer(values.size() * width, '\0');
+  for (std::size_t i = 0; i < values.size(); ++i) std::copy(values[i].begin(), values[i].end(), &buffer[i * width]);
+  if (!buffer.empty() && H5Dwrite(dataset.get(), type.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, buffer.data()) < 0) {
+    fail(file_name_, "write", "dataset " + child_path(name));
+  }
   return Dataset(std::move(dataset), file_name_, child_path(name));
 }
 

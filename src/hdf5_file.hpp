@@ -94,6 +94,8 @@ class Dataset : public Object {
   }
   // The whole dataset, row-major, converted to double whatever type it is stored in (int64 above 2^53 rounds).
   std::vector<double> read() const;
+  // A dataset made by Group::create_string_list; refuses any other type (variable-length strings included).
+  std::vector<std::string> read_strings() const;
 
  private:
   friend class Group;
@@ -108,6 +110,9 @@ class Group : public Object {
   Group group(const std::string& name) const;
   bool has_child(const std::string& name) const;  // a group or dataset of that name directly under this group
   Dataset create_dataset(const std::string& name, Element type, const std::vector<std::size_t>& shape);
+  // A vector of fixed-length UTF-8 strings (NUL-padded to the longest): unlike an attribute it has no 64 kB limit,
+  // so it holds one string per rollout or run however many there are, and reading it allocates only its own size.
+  Dataset create_string_list(const std::string& name, const std::vector<std::string>& values);
   // A dataset of shape (0, entry_shape...) that grows along its first dimension by Dataset::append, one entry per
   // chunk (entries over 1 GiB span several) so that each append is one contiguous write.
   Dataset create_growing_dataset(const std::string& name, Element type, const std::vector<std::size_t>& entry_shape);

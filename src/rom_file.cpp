@@ -74,7 +74,7 @@ void save_rom(const std::string& path, const RomFile& rom) {
       values.insert(values.end(), c.values.begin(), c.values.end());
       splits.push_back(c.split);
     }
-    parameters.set_string_list_attribute("split", splits);
+    parameters.create_string_list("split", splits);
     write_dataset(parameters, "values", hdf5::Element::float64, values, {B, names});
 
     hdf5::Group latent = file.create_group("latent");
@@ -98,8 +98,8 @@ void save_rom(const std::string& path, const RomFile& rom) {
       stopped.push_back(o.stopped_at);
       messages.push_back(o.message);
     }
-    outcome.set_string_list_attribute("messages", messages);
-    outcome.set_string_list_attribute("warnings", warnings);
+    outcome.create_string_list("messages", messages);
+    outcome.create_string_list("warnings", warnings);
     write_dataset(outcome, "flags", hdf5::Element::int64, flags, {B});
     write_dataset(outcome, "frames_completed", hdf5::Element::int64, completed, {B});
     write_dataset(outcome, "regularized_steps", hdf5::Element::int64, regularized, {B});
@@ -146,8 +146,8 @@ RomFile load_rom(const std::string& path) {
   if (!file.has_attribute("format") || file.string_attribute("format") != rom_format)
     bad(path, "not an mpmrom reduced-model (ROM) file");
   const auto version = file.integer_attribute("format_version");
-  if (version != rom_format_version)
-    bad(path, "ROM format version " + std::to_string(version) + " is not supported (this build reads version " +
+  if (version != 1 && version != rom_format_version)
+    bad(path, "ROM format version " + std::to_string(version) + " is not supported (this build reads versions 1 to " +
                   std::to_string(rom_format_version) + ")");
   if (!file.has_attribute("complete") || file.integer_attribute("complete") != 1) bad(path, "incomplete ROM file");
   for (const char* group : {"parameters", "latent", "outcome", "samples"})
@@ -167,7 +167,11 @@ RomFile load_rom(const std::string& path) {
   RomResult& res = rom.result;
   const hdf5::Group parameters = file.group("parameters");
   res.parameter_names = parameters.string_list_attribute("names");
-  const auto splits = parameters.string_list_attribute("split");
+  // Version 1 kept the per-rollout strings in attributes, which HDF5 caps at 64 kB (about 10^4 rollouts).
+  const auto per_rollout_strings = [&](const hdf5::Group& group, const std::string& name) {
+    return version == 1 ? group.string_list_attribute(name) : group.dataset(name).read_strings();
+  };
+  const auto splits = per_rollout_strings(parameters, "split");
   const std::size_t B = splits.size(), names = res.parameter_names.size();
   const auto values = impl::read_checked(path, parameters.dataset("values"), {B, names}, "(rollouts, parameters)");
   for (std::size_t b = 0; b < B; ++b)
@@ -188,7 +192,7 @@ RomFile load_rom(const std::string& path) {
   res.xhatdot = impl::read_checked(path, latent.dataset("xhatdot"), {B, frames, r}, "(like xhat)");
 
   const hdf5::Group outcome = file.group("outcome");
-  const auto messages = outcome.string_list_attribute("messages");
+  const auto messages = per_rollout_strings(outcome, "messages");
   if (messages.size() != B) bad(path, "/outcome messages: one per rollout expected");
   const auto flags = impl::read_checked(path, outcome.dataset("flags"), {B}, "(one per rollout)");
   const auto completed = impl::read_checked(path, outcome.dataset("frames_completed"), {B}, "(one per rollout)");
@@ -198,7 +202,7 @@ RomFile load_rom(const std::string& path) {
   const auto stopped = impl::read_checked(path, outcome.dataset("stopped_at"), {B}, "(one per rollout)");
   // Files written before the stability safeguards have no warnings or fallbacks: none to report.
   std::vector<std::string> warnings(B);
-  if (outcome.has_attribute("warnings")) warnings = outcome.string_list_attribute("warnings");
+  if (version > 1 || outcome.has_attribute("warnings")) warnings = per_rollout_strings(outcome, "warnings");
   if (warnings.size() != B) bad(path, "/outcome warnings: one per rollout expected");
   std::vector<double> fallbacks(B, 0.0);
   if (outcome.has_child("inversion_fallbacks"))

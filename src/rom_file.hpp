@@ -15,7 +15,7 @@
 namespace mpmrom {
 
 inline constexpr const char* rom_format = "mpmrom-rom";
-inline constexpr int rom_format_version = 1;
+inline constexpr int rom_format_version = 2;
 
 struct RomFile {
   RomResult result;

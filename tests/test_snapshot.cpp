@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "hdf5_file.hpp"
+#include "rom_file.hpp"
 #include "snapshot.hpp"
 
 namespace mpmrom::test {
@@ -329,6 +330,68 @@ TEST_F(SnapshotTest, Hdf5StringListAttributesRoundTrip) {
   file.set_string_list_attribute("none", {});
   EXPECT_EQ(file.string_list_attribute("names"), names);
   EXPECT_TRUE(file.string_list_attribute("none").empty());
+}
+
+TEST_F(SnapshotTest, Hdf5StringListDatasetsRoundTripPastTheAttributeLimit) {
+  auto file = hdf5::File::create(path("lists.h5"));
+  // 20000 strings of up to 12 bytes: about 240 kB, beyond the 64 kB an attribute (an object header message) can hold.
+  std::vector<std::string> many;
+  for (int i = 0; i < 20000; ++i) many.push_back(i % 3 == 0 ? "" : "rollout " + std::to_string(i));
+  file.create_string_list("many", many);
+  const std::vector<std::string> short_list{"b", "", "a ν", "c"};  // UTF-8 and an empty entry
+  file.create_string_list("short", short_list);
+  file.create_string_list("none", {});
+  EXPECT_EQ(file.dataset("many").read_strings(), many);
+  EXPECT_EQ(file.dataset("short").read_strings(), short_list);
+  EXPECT_TRUE(file.dataset("none").read_strings().empty());
+}
+
+TEST_F(SnapshotTest, Hdf5StringListReaderRefusesOtherTypes) {
+  auto file = hdf5::File::create(path("lists.h5"));
+  file.create_dataset("numbers", hdf5::Element::float64, {3}).write(std::vector<double>{1, 2, 3}.data());
+  try {
+    (void)file.dataset("numbers").read_strings();
+    ADD_FAILURE() << "read numbers as strings";
+  } catch (const std::runtime_error& error) {
+    EXPECT_EQ(std::string(error.what()), path("lists.h5") + ": dataset /numbers is not a list of fixed-length strings");
+  }
+}
+
+// A batch of 20000 rollouts: the per-rollout strings (split, messages, warnings) of ROM format version 1 were
+// attributes and could not be written past about 10^4 rollouts.
+TEST_F(SnapshotTest, RomFileWithManyRolloutsRoundTrips) {
+  constexpr std::size_t rollouts = 20000, frames = 2, r = 2;
+  RomFile rom;
+  RomResult& res = rom.result;
+  res.parameter_names = {"rho"};
+  res.latent_dim = int(r);
+  res.times = {0.0, 0.1};
+  res.steps = 4;
+  for (std::size_t b = 0; b < rollouts; ++b) {
+    res.cases.push_back({{1.0 + double(b)}, b % 2 == 0 ? "test" : "validation"});
+    RolloutOutcome outcome;
+    outcome.frames_completed = int(frames);
+    outcome.message = b % 7 == 0 ? "stopped: rollout " + std::to_string(b) : "";
+    outcome.warning = b % 5 == 0 ? "rho is 0.5 widths above the training range" : "";
+    res.outcomes.push_back(outcome);
+    for (std::size_t k = 0; k < frames * r; ++k) {
+      res.xhat.push_back(double(b) + 0.25 * double(k));
+      res.xhatdot.push_back(-double(k));
+    }
+  }
+  rom.model_path = "model.h5";
+  rom.scene_name = "synthetic";
+  save_rom(path("rom.h5"), rom);
+  const RomFile read = load_rom(path("rom.h5"));
+  ASSERT_EQ(read.result.cases.size(), rollouts);
+  EXPECT_EQ(read.result.xhat, res.xhat);
+  EXPECT_EQ(read.result.xhatdot, res.xhatdot);
+  for (std::size_t b = 0; b < rollouts; ++b) {
+    ASSERT_EQ(read.result.cases[b].split, res.cases[b].split) << b;
+    ASSERT_EQ(read.result.cases[b].values, res.cases[b].values) << b;
+    ASSERT_EQ(read.result.outcomes[b].message, res.outcomes[b].message) << b;
+    ASSERT_EQ(read.result.outcomes[b].warning, res.outcomes[b].warning) << b;
+  }
 }
 
 }  // namespace
