@@ -687,6 +687,34 @@ std::string impl::describe_flags(int flags) {
   return out;
 }
 
+void impl::record_rollouts(BatchStepperBase& stepper, RomResult& result,
+                           const std::function<void(const RomProgress&)>& progress) {
+  const std::size_t B = std::size_t(stepper.rollouts()), frames = std::size_t(stepper.frames());
+  const std::size_t r = std::size_t(stepper.latent_dim());
+  result.times = stepper.times();
+  result.xhat.assign(B * frames * r, 0.0);
+  result.xhatdot.assign(B * frames * r, 0.0);
+  std::vector<double> xhat, xhatdot;
+  const auto record = [&]() {
+    stepper.latent(xhat, xhatdot);  // a stopped rollout keeps its last good state
+    const std::size_t frame = std::size_t(stepper.frame());
+    for (std::size_t b = 0; b < B; ++b)
+      for (std::size_t q = 0; q < r; ++q) {
+        result.xhat[(b * frames + frame) * r + q] = xhat[b * r + q];
+        result.xhatdot[(b * frames + frame) * r + q] = xhatdot[b * r + q];
+      }
+  };
+  record();
+  while (stepper.advance_frame()) {
+    record();
+    if (progress)
+      progress({stepper.frame(), int(frames) - 1, stepper.time(), stepper.steps(), stepper.step_seconds()});
+  }
+  result.steps = stepper.steps();
+  result.step_seconds = stepper.step_seconds();
+  result.outcomes = stepper.outcomes();
+}
+
 double training_latent_speed(const Model& model) {
   const int r = model.latent_dim;
   std::map<std::int64_t, std::vector<int>> run_codes;
@@ -741,9 +769,11 @@ std::string training_range_warning(const Model& model, const std::vector<std::st
   return warning.empty() ? warning : warning + " (extrapolation: expect larger errors)";
 }
 
-RomResult run_rollouts(const Model& model, const std::string& scene_path, const std::vector<std::string>& names,
-                       const std::vector<RolloutCase>& cases, const RomSettings& settings,
-                       const HyperReduction& reduction, const std::function<void(const RomProgress&)>& progress) {
+std::unique_ptr<impl::BatchStepperBase> impl::create_stepper(const Model& model, const std::string& scene_path,
+                                                            const std::vector<std::string>& names,
+                                                            const std::vector<RolloutCase>& cases,
+                                                            const RomSettings& settings,
+                                                            const HyperReduction& reduction) {
   settings.validate();
   if (model.latent_dim > rom::max_latent_dim)
     throw std::runtime_error("the reduced model supports latent dimensions up to " +
@@ -752,12 +782,6 @@ RomResult run_rollouts(const Model& model, const std::string& scene_path, const 
   if (cases.empty()) throw std::runtime_error("no rollouts to run: the parameter list is empty");
   if (reduction.samples.empty() || reduction.nodes.empty())
     throw std::runtime_error("the hyper-reduction has no sample points or no nodes");
-  const auto start = Clock::now();
-  RomResult result;
-  result.parameter_names = names;
-  result.cases = cases;
-  result.latent_dim = model.latent_dim;
-
   std::vector<rom::RolloutLoads> loads;
   std::vector<double> xhat0, xhatdot0;
   Scene first;
@@ -797,13 +821,28 @@ RomResult run_rollouts(const Model& model, const std::string& scene_path, const 
   }
   if (settings.end_time > 0) impl::apply_horizon(first, settings.end_time);
   const double max_latent_speed = settings.energy_growth * training_latent_speed(model);
-  result.setup_seconds = seconds_since(start);
   const Vector params = upload<Vector>("mpmrom::rom::params", model.weights, model.layout().num_params);
+  std::unique_ptr<impl::BatchStepperBase> stepper;
   nn::dispatch_max_width(model.layout().widest, [&](auto width) {
-    const rom::MlpManifold<decltype(width)::value, MemorySpace> manifold{impl::device_mlp(model, params)};
-    impl::step_batch(manifold, model.latent_dim, {model.X, model.mass, model.volume}, first, loads, xhat0, xhatdot0,
-                     settings, max_latent_speed, reduction, result, progress);
+    using Manifold = rom::MlpManifold<decltype(width)::value, MemorySpace>;
+    stepper = std::make_unique<impl::BatchStepper<Manifold>>(
+        Manifold{impl::device_mlp(model, params)}, model.latent_dim, impl::ReferencePoints{model.X, model.mass, model.volume},
+        first, loads, xhat0, xhatdot0, settings, max_latent_speed, reduction);
   });
+  return stepper;
+}
+
+RomResult run_rollouts(const Model& model, const std::string& scene_path, const std::vector<std::string>& names,
+                       const std::vector<RolloutCase>& cases, const RomSettings& settings,
+                       const HyperReduction& reduction, const std::function<void(const RomProgress&)>& progress) {
+  const auto start = Clock::now();
+  RomResult result;
+  result.parameter_names = names;
+  result.cases = cases;
+  result.latent_dim = model.latent_dim;
+  const auto stepper = impl::create_stepper(model, scene_path, names, cases, settings, reduction);
+  result.setup_seconds = seconds_since(start);
+  impl::record_rollouts(*stepper, result, progress);
   for (std::size_t c = 0; c < cases.size(); ++c)
     result.outcomes[c].warning = training_range_warning(model, names, cases[c].values);
   return result;

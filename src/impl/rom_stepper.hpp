@@ -9,6 +9,7 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -45,226 +46,303 @@ HyperReduction hyper_reduction_from_motion(const Scene& scene, const RomSettings
                                            const std::vector<int>& samples, const std::vector<double>& positions,
                                            std::size_t P, const std::vector<int>& next = {});
 
-// Advances the batch from (xhat0, xhatdot0) (rollouts x r, row-major) through the scene's output times on manifold,
-// filling result's times, latent trajectories, outcomes and step timing. max_latent_speed: the energy detector's
-// limit on |xhatdot| (0: none).
+// A batch of rollouts on the device and the step that advances it, one output interval at a time. The base class
+// hides the manifold's type, so that the public RolloutBatch (rollout_batch.hpp) can hold any network width.
+class BatchStepperBase {
+ public:
+  virtual ~BatchStepperBase() = default;
+  int rollouts() const { return int(outcomes_.size()); }
+  int latent_dim() const { return latent_dim_; }
+  int frames() const { return int(times_.size()); }  // output frames, the initial state included
+  int frame() const { return frame_; }                 // the output frame the batch is at
+  double time() const { return times_[std::size_t(frame_)]; }
+  const std::vector<double>& times() const { return times_; }
+  long steps() const { return steps_; }
+  double step_seconds() const { return step_seconds_; }  // wall time spent in advance_frame
+  // Advances every running rollout to the next output time (rollouts that have stopped keep their last state);
+  // false, doing nothing, when the batch is already at the horizon.
+  virtual bool advance_frame() = 0;
+  // The latent state and its rate now, (rollouts, r) row-major each.
+  virtual void latent(std::vector<double>& xhat, std::vector<double>& xhatdot) const = 0;
+  // What has happened to each rollout so far: flags, stop time and message, counters, frames completed.
+  virtual std::vector<RolloutOutcome> outcomes() const = 0;
+
+ protected:
+  BatchStepperBase(int rollouts, int latent_dim, std::vector<double> times)
+      : latent_dim_(latent_dim), times_(std::move(times)), outcomes_(std::size_t(rollouts)) {
+    for (auto& outcome : outcomes_) outcome.frames_completed = 1;
+  }
+  int latent_dim_;
+  std::vector<double> times_;
+  int frame_ = 0;
+  long steps_ = 0;
+  double step_seconds_ = 0;
+  std::vector<RolloutOutcome> outcomes_;  // flags, frames_completed, stopped_at and message, kept on the host
+};
+
 template <class Manifold>
-void step_batch(const Manifold& manifold, int latent_dim, const ReferencePoints& model, const Scene& scene,
-                const std::vector<rom::RolloutLoads>& host_loads,
-                const std::vector<double>& xhat0, const std::vector<double>& xhatdot0, const RomSettings& settings,
-                double max_latent_speed, const HyperReduction& h, RomResult& result, const std::function<void(const RomProgress&)>& progress) {
+class BatchStepper final : public BatchStepperBase {
   using ExecutionSpace = Kokkos::DefaultExecutionSpace;
   using MemorySpace = ExecutionSpace::memory_space;
   using Vector = DeviceVector;
   using Matrix = DeviceMatrix;
   using Cube = DeviceCube;
   using Quad = DeviceQuad;
-  using Clock = std::chrono::steady_clock;
-  const auto seconds_since = [](Clock::time_point t) {
-    return std::chrono::duration<double>(Clock::now() - t).count();
-  };
-  const ExecutionSpace space;
-  const int B = int(host_loads.size()), r = latent_dim;
-  const int S = int(h.samples.size()), I = int(h.nodes.size());
-  const bool point_method = settings.method == RomMethod::MaterialPoint;
-  const int K = point_method ? int(h.source_points.size()) : int(h.quadrature_weight.size());
-  const GridGeometry<real_t> grid = grid_for_scene(scene);
-  const ElasticMaterial<real_t> material = material_for_scene(scene);
-  const bool apic = scene.transfer == TransferKind::APIC;
-  const real_t wave_speed = stable_time_step_wave_speed(material, real_t(scene.material.density));
-  const double cfl = settings.cfl > 0 ? settings.cfl : scene.cfl;
-  constexpr double epsilon = std::numeric_limits<real_t>::epsilon();
+  using IndexView = Kokkos::View<int*, DeviceMemory>;
 
-  // Static data.
-  std::vector<double> X_src, mass_src, volume_src, X_samples;
-  for (const int p : h.source_points) {
-    X_src.insert(X_src.end(), model.X.begin() + 3 * p, model.X.begin() + 3 * p + 3);
-    mass_src.push_back(model.mass[p]);
-    volume_src.push_back(model.volume[p]);
-  }
-  for (const int s : h.samples) X_samples.insert(X_samples.end(), model.X.begin() + 3 * s, model.X.begin() + 3 * s + 3);
-  const Matrix points_X = upload<Matrix>("mpmrom::rom::source_X", X_src, X_src.size() / 3, 3);
-  const Vector points_mass = upload<Vector>("mpmrom::rom::source_mass", mass_src, mass_src.size());
-  const Vector points_volume = upload<Vector>("mpmrom::rom::source_volume", volume_src, volume_src.size());
-  const Matrix samples_X = upload<Matrix>("mpmrom::rom::samples_X", X_samples, S, 3);
-  const Matrix quadrature_x =
-      upload<Matrix>("mpmrom::rom::quadrature_x", h.quadrature_x, h.quadrature_weight.size(), 3);
-  const Vector quadrature_w =
-      upload<Vector>("mpmrom::rom::quadrature_w", h.quadrature_weight, h.quadrature_weight.size());
-  const auto nodes = upload_indices("mpmrom::rom::nodes", h.nodes);
-  const auto offsets = upload_indices("mpmrom::rom::node_offsets", h.node_offsets);
-  const auto node_sources = upload_indices("mpmrom::rom::node_sources", h.node_sources);
-  std::vector<int> slot_host(std::size_t(grid.num_nodes()), -1);
-  for (int n = 0; n < I; ++n) slot_host[h.nodes[n]] = n;
-  const auto node_slot = upload_indices("mpmrom::rom::node_slot", slot_host);
-  Kokkos::View<rom::RolloutLoads*, MemorySpace> loads("mpmrom::rom::loads", B);
-  {
-    auto host = Kokkos::create_mirror_view(loads);
-    for (int b = 0; b < B; ++b) host(b) = host_loads[b];
-    Kokkos::deep_copy(loads, host);
-  }
-
-  // State and work arrays.
-  std::vector<double> xhat_all, xhatdot_all;
-  for (int b = 0; b < B; ++b) {
-    xhat_all.insert(xhat_all.end(), xhat0.begin() + std::size_t(b) * r, xhat0.begin() + std::size_t(b + 1) * r);
-    xhatdot_all.insert(xhatdot_all.end(), xhatdot0.begin() + std::size_t(b) * r,
-                       xhatdot0.begin() + std::size_t(b + 1) * r);
-  }
-  const Matrix xhat = upload<Matrix>("mpmrom::rom::xhat", xhat_all, B, r);
-  const Matrix xhatdot = upload<Matrix>("mpmrom::rom::xhatdot", xhatdot_all, B, r);
-  rom::SourceView<MemorySpace> sources("mpmrom::rom::sources", B, K, rom::source_size);
-  Cube sample_x("mpmrom::rom::sample_x", B, S, 3), sample_v("mpmrom::rom::sample_v", B, S, 3);
-  Quad sample_J("mpmrom::rom::sample_J", B, S, 3, r);
-  Cube node_v("mpmrom::rom::node_v", B, I, 3), trial_x("mpmrom::rom::trial_x", B, S, 3);
-  Matrix xhat_next("mpmrom::rom::xhat_next", B, r), xhatdot_next("mpmrom::rom::xhatdot_next", B, r);
-  Cube reference("mpmrom::rom::reference", point_method ? 0 : B, point_method ? 0 : K, 3);
-  Kokkos::View<unsigned char**, MemorySpace> converged("mpmrom::rom::converged", point_method ? 0 : B,
-                                                      point_method ? 0 : K);
-  Kokkos::View<int*, MemorySpace> failures("mpmrom::rom::failures", B), flags("mpmrom::rom::flags", B);
-  Kokkos::View<int*, MemorySpace> step_failures("mpmrom::rom::step_failures", B);
-  Kokkos::View<int*, MemorySpace> fallbacks("mpmrom::rom::fallbacks", B);
-  const int max_failed_inversions = int(std::floor(settings.max_failed_inversions * K));
-  Vector max_condition("mpmrom::rom::max_condition", B);
-  Kokkos::View<int*, MemorySpace> regularized("mpmrom::rom::regularized", B);
-
-  rom::ProjectionGuard guard;
-  guard.max_condition = real_t(settings.max_condition > 0 ? settings.max_condition : 0.01 / epsilon);
-  guard.regularization = real_t(settings.regularization > 0 ? settings.regularization : 100 * epsilon);
-  guard.regularize = settings.regularize;
-  guard.max_latent_speed = real_t(max_latent_speed);
-  rom::NewtonSettings newton;
-  newton.tolerance = real_t(settings.newton_tolerance * scene.dx);
-  newton.max_iterations = settings.newton_iterations;
-  const rom::ReferenceDomain domain = reference_domain(scene);
-
-  const int frames = scene.num_outputs + 1;
-  result.times.clear();
-  result.xhat.assign(std::size_t(B) * frames * r, 0.0);
-  result.xhatdot.assign(std::size_t(B) * frames * r, 0.0);
-  result.outcomes.assign(B, RolloutOutcome{});
-  std::vector<int> host_flags(B, 0);
-  const auto record = [&](int frame) {
-    const auto xh = download(xhat), xd = download(xhatdot);
-    auto hf = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), flags);
-    for (int b = 0; b < B; ++b) {
-      RolloutOutcome& outcome = result.outcomes[b];
-      const bool fatal = hf(b) & rom::fatal_flags;
-      if (!fatal) outcome.frames_completed = frame + 1;
-      for (int q = 0; q < r; ++q) {
-        const std::size_t at = (std::size_t(b) * frames + frame) * r + q;
-        result.xhat[at] = xh[std::size_t(b) * r + q];  // a stopped rollout keeps its last good state
-        result.xhatdot[at] = xd[std::size_t(b) * r + q];
-      }
+ public:
+  // The batch at (xhat0, xhatdot0) (rollouts x r, row-major) at time 0, to be advanced through the scene's output
+  // times on manifold. max_latent_speed: the energy detector's limit on |xhatdot| (0: none).
+  BatchStepper(const Manifold& manifold, int latent_dim, const ReferencePoints& model, const Scene& scene,
+               const std::vector<rom::RolloutLoads>& host_loads, const std::vector<double>& xhat0,
+               const std::vector<double>& xhatdot0, const RomSettings& settings, double max_latent_speed,
+               const HyperReduction& h)
+      : BatchStepperBase(int(host_loads.size()), latent_dim, output_times(scene)),
+        manifold_(manifold),
+        settings_(settings),
+        B_(int(host_loads.size())),
+        S_(int(h.samples.size())),
+        I_(int(h.nodes.size())),
+        point_method_(settings.method == RomMethod::MaterialPoint),
+        K_(point_method_ ? int(h.source_points.size()) : int(h.quadrature_weight.size())),
+        grid_(grid_for_scene(scene)),
+        material_(material_for_scene(scene)),
+        apic_(scene.transfer == TransferKind::APIC),
+        wave_speed_(double(stable_time_step_wave_speed(material_, real_t(scene.material.density)))),
+        cfl_(settings.cfl > 0 ? settings.cfl : scene.cfl),
+        dx_(scene.dx),
+        density_(real_t(scene.material.density)),
+        domain_(reference_domain(scene)),
+        max_failed_inversions_(int(std::floor(settings.max_failed_inversions * K_))) {
+    const int r = latent_dim, B = B_, S = S_, K = K_;
+    std::vector<double> X_src, mass_src, volume_src, X_samples;
+    for (const int p : h.source_points) {
+      X_src.insert(X_src.end(), model.X.begin() + 3 * p, model.X.begin() + 3 * p + 3);
+      mass_src.push_back(model.mass[p]);
+      volume_src.push_back(model.volume[p]);
     }
-  };
-  const auto check_flags = [&](double time) {
-    auto hf = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), flags);
-    for (int b = 0; b < B; ++b) {
-      if ((hf(b) & rom::fatal_flags) && !(host_flags[b] & rom::fatal_flags)) {
-        result.outcomes[b].stopped_at = time;
-        result.outcomes[b].message = "stopped at t = " + std::to_string(time) + " s: " + describe_flags(hf(b));
-      }
-      host_flags[b] = hf(b);
+    for (const int s : h.samples)
+      X_samples.insert(X_samples.end(), model.X.begin() + 3 * s, model.X.begin() + 3 * s + 3);
+    points_X_ = upload<Matrix>("mpmrom::rom::source_X", X_src, X_src.size() / 3, 3);
+    points_mass_ = upload<Vector>("mpmrom::rom::source_mass", mass_src, mass_src.size());
+    points_volume_ = upload<Vector>("mpmrom::rom::source_volume", volume_src, volume_src.size());
+    samples_X_ = upload<Matrix>("mpmrom::rom::samples_X", X_samples, S, 3);
+    quadrature_x_ = upload<Matrix>("mpmrom::rom::quadrature_x", h.quadrature_x, h.quadrature_weight.size(), 3);
+    quadrature_w_ = upload<Vector>("mpmrom::rom::quadrature_w", h.quadrature_weight, h.quadrature_weight.size());
+    nodes_ = upload_indices("mpmrom::rom::nodes", h.nodes);
+    offsets_ = upload_indices("mpmrom::rom::node_offsets", h.node_offsets);
+    node_sources_ = upload_indices("mpmrom::rom::node_sources", h.node_sources);
+    std::vector<int> slot_host(std::size_t(grid_.num_nodes()), -1);
+    for (int n = 0; n < I_; ++n) slot_host[h.nodes[n]] = n;
+    node_slot_ = upload_indices("mpmrom::rom::node_slot", slot_host);
+    loads_ = Kokkos::View<rom::RolloutLoads*, MemorySpace>("mpmrom::rom::loads", B);
+    {
+      auto host = Kokkos::create_mirror_view(loads_);
+      for (int b = 0; b < B; ++b) host(b) = host_loads[b];
+      Kokkos::deep_copy(loads_, host);
     }
-  };
+    xhat_ = upload<Matrix>("mpmrom::rom::xhat", xhat0, B, r);
+    xhatdot_ = upload<Matrix>("mpmrom::rom::xhatdot", xhatdot0, B, r);
+    sources_ = rom::SourceView<MemorySpace>("mpmrom::rom::sources", B, K, rom::source_size);
+    sample_x_ = Cube("mpmrom::rom::sample_x", B, S, 3);
+    sample_v_ = Cube("mpmrom::rom::sample_v", B, S, 3);
+    sample_J_ = Quad("mpmrom::rom::sample_J", B, S, 3, r);
+    node_v_ = Cube("mpmrom::rom::node_v", B, I_, 3);
+    trial_x_ = Cube("mpmrom::rom::trial_x", B, S, 3);
+    xhat_next_ = Matrix("mpmrom::rom::xhat_next", B, r);
+    xhatdot_next_ = Matrix("mpmrom::rom::xhatdot_next", B, r);
+    reference_ = Cube("mpmrom::rom::reference", point_method_ ? 0 : B, point_method_ ? 0 : K, 3);
+    converged_ = Kokkos::View<unsigned char**, MemorySpace>("mpmrom::rom::converged", point_method_ ? 0 : B,
+                                                            point_method_ ? 0 : K);
+    failures_ = Kokkos::View<int*, MemorySpace>("mpmrom::rom::failures", B);
+    flags_ = Kokkos::View<int*, MemorySpace>("mpmrom::rom::flags", B);
+    step_failures_ = Kokkos::View<int*, MemorySpace>("mpmrom::rom::step_failures", B);
+    fallbacks_ = Kokkos::View<int*, MemorySpace>("mpmrom::rom::fallbacks", B);
+    max_condition_ = Vector("mpmrom::rom::max_condition", B);
+    regularized_ = Kokkos::View<int*, MemorySpace>("mpmrom::rom::regularized", B);
+    fastest_sample_ = Kokkos::View<real_t, MemorySpace>("mpmrom::rom::fastest_sample");
 
-  const auto start = Clock::now();
-  double time = 0;
-  real_t max_speed = 0;
-  Kokkos::View<real_t, MemorySpace> fastest_sample("mpmrom::rom::fastest_sample");
-  result.times.push_back(0.0);
-  record(0);
-  for (int frame = 1; frame < frames; ++frame) {
-    const double target = scene.end_time * frame / scene.num_outputs;
-    const double dt_max = cfl * scene.dx / (double(wave_speed) + double(max_speed));
+    constexpr double epsilon = std::numeric_limits<real_t>::epsilon();
+    guard_.max_condition = real_t(settings.max_condition > 0 ? settings.max_condition : 0.01 / epsilon);
+    guard_.regularization = real_t(settings.regularization > 0 ? settings.regularization : 100 * epsilon);
+    guard_.regularize = settings.regularize;
+    guard_.max_latent_speed = real_t(max_latent_speed);
+    newton_.tolerance = real_t(settings.newton_tolerance * scene.dx);
+    newton_.max_iterations = settings.newton_iterations;
+  }
+
+  bool advance_frame() override {
+    if (frame_ + 1 >= frames()) return false;
+    const auto start = std::chrono::steady_clock::now();
+    const double target = times_[std::size_t(frame_ + 1)];
+    double time = times_[std::size_t(frame_)];
+    const double dt_max = cfl_ * dx_ / (wave_speed_ + double(max_speed_));
     // Once every rollout has stopped there is nothing left to advance: the remaining frames repeat the last state.
-    const bool all_stopped = std::all_of(host_flags.begin(), host_flags.end(),
-                                         [](int f) { return (f & rom::fatal_flags) != 0; });
-    const long substeps =
-        all_stopped ? 0 : std::max(1L, long(std::ceil((target - time) / dt_max - 1e-9)));
+    const bool all_stopped = std::all_of(outcomes_.begin(), outcomes_.end(),
+                                         [](const RolloutOutcome& o) { return (o.flags & rom::fatal_flags) != 0; });
+    const long substeps = all_stopped ? 0 : std::max(1L, long(std::ceil((target - time) / dt_max - 1e-9)));
     const double dt_interval = substeps > 0 ? (target - time) / double(substeps) : 0.0;
     for (long sub = 0; sub < substeps; ++sub) {
-      const real_t t = real_t(time), dt = real_t(dt_interval);
-      if (point_method) {
-        Kokkos::parallel_for(
-            "mpmrom::rom::point_sources", Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>>(space, 0, long(B) * K),
-            rom::MaterialPointSources<Manifold, MemorySpace>{
-                manifold, points_X, points_mass, points_volume, xhat, xhatdot, loads, material, t, dt, apic, sources,
-                sample_x, sample_J, flags});
-      } else {
-        Kokkos::parallel_for(
-            "mpmrom::rom::sample_kinematics",
-            Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>>(space, 0, long(B) * S),
-            rom::SampleKinematics<Manifold, MemorySpace>{manifold, samples_X, xhat, xhatdot, sample_x,
-                                                                    sample_J});
-        Kokkos::parallel_for(
-            "mpmrom::rom::quadrature_sources",
-            Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>>(space, 0, long(B) * K),
-            rom::QuadratureSources<Manifold, MemorySpace>{
-                manifold, quadrature_x, quadrature_w, domain, real_t(scene.material.density), newton,
-                settings.inversion_fallback, xhat, xhatdot, loads, material, t, dt, apic, reference, converged,
-                sources, failures, step_failures, fallbacks, flags});
-        Kokkos::parallel_for("mpmrom::rom::check_inversions", Kokkos::RangePolicy<ExecutionSpace>(space, 0, B),
-                             rom::CheckInversions<MemorySpace>{step_failures, max_failed_inversions, flags});
-      }
-      Kokkos::parallel_for("mpmrom::rom::gather_nodes",
-                           Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>>(space, 0, long(B) * I),
-                           rom::GatherNodeVelocities<MemorySpace>{grid, nodes, offsets, node_sources, sources, loads,
-                                                                  t, dt, node_v});
-      // Into a device View: only the last sub-step's speed is read (at the frame's end), so sub-steps never wait.
-      Kokkos::parallel_reduce(
-          "mpmrom::rom::g2p_samples", Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>>(space, 0, long(B) * S),
-          rom::SampleVelocities<MemorySpace>{grid, node_slot, sample_x, node_v, sample_v, flags},
-          Kokkos::Max<real_t, MemorySpace>(fastest_sample));
-      using Projection = rom::ProjectVelocities<ExecutionSpace, MemorySpace>;
-      const auto project = [&]() {
-        Kokkos::parallel_for("mpmrom::rom::project",
-                             Kokkos::TeamPolicy<ExecutionSpace>(space, B, Kokkos::AUTO)
-                                 .set_scratch_size(0, Kokkos::PerTeam(Projection::scratch_bytes(r))),
-                             Projection{r, sample_J, sample_v, xhat, xhat_next, xhatdot_next, guard, dt, flags,
-                                        max_condition, regularized});
-      };
-      Kokkos::deep_copy(space, xhat_next, xhat);
-      Kokkos::deep_copy(space, xhatdot_next, xhatdot);
-      project();
-      // Re-project with J at the trial next state, so that the new state's own velocity field J(xhat_n+1) xhatdot
-      // reproduces the transferred velocities (with J(xhat_n) the manifold's curvature is counted twice).
-      for (int iteration = 0; iteration < settings.projection_iterations; ++iteration) {
-        Kokkos::parallel_for(
-            "mpmrom::rom::sample_jacobians",
-            Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>>(space, 0, long(B) * S),
-            rom::SampleKinematics<Manifold, MemorySpace>{manifold, samples_X, xhat_next, xhatdot_next,
-                                                                    trial_x, sample_J});
-        project();
-      }
-      Kokkos::deep_copy(space, xhat, xhat_next);
-      Kokkos::deep_copy(space, xhatdot, xhatdot_next);
+      substep(real_t(time), real_t(dt_interval));
       time = sub + 1 == substeps ? target : time + dt_interval;
-      ++result.steps;
+      ++steps_;
     }
-    if (all_stopped) time = target;
-    if (substeps > 0) Kokkos::deep_copy(max_speed, fastest_sample);
-    check_flags(time);
-    result.times.push_back(target);
-    record(frame);
-    if (progress) progress({frame, frames - 1, time, result.steps, seconds_since(start)});
+    if (substeps > 0) Kokkos::deep_copy(max_speed_, fastest_sample_);
+    ++frame_;
+    update_outcomes(target);
+    step_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return true;
   }
-  Kokkos::fence();
-  result.step_seconds = seconds_since(start);
-  const auto hc = download(max_condition);
-  auto hr = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), regularized);
-  auto hfail = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), failures);
-  auto hfallback = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), fallbacks);
-  for (int b = 0; b < B; ++b) {
-    RolloutOutcome& outcome = result.outcomes[b];
-    outcome.flags = host_flags[b];
-    outcome.max_condition = hc[b];
-    outcome.regularized_steps = hr(b);
-    outcome.inversion_failures = hfail(b);
-    outcome.inversion_fallbacks = hfallback(b);
-  }
-}
 
+  void latent(std::vector<double>& xhat, std::vector<double>& xhatdot) const override {
+    xhat = download(xhat_);
+    xhatdot = download(xhatdot_);
+  }
+
+  std::vector<RolloutOutcome> outcomes() const override {
+    std::vector<RolloutOutcome> result = outcomes_;
+    const auto condition = download(max_condition_);
+    const auto regularized = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), regularized_);
+    const auto failures = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), failures_);
+    const auto fallbacks = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), fallbacks_);
+    for (int b = 0; b < B_; ++b) {
+      result[b].max_condition = condition[b];
+      result[b].regularized_steps = regularized(b);
+      result[b].inversion_failures = failures(b);
+      result[b].inversion_fallbacks = fallbacks(b);
+    }
+    return result;
+  }
+
+ private:
+  static std::vector<double> output_times(const Scene& scene) {
+    std::vector<double> times{0.0};
+    for (int frame = 1; frame <= scene.num_outputs; ++frame) times.push_back(scene.end_time * frame / scene.num_outputs);
+    return times;
+  }
+
+  // One time step of every rollout: sources, node velocities, sample velocities, projection (paper Algorithms 1, 2).
+  void substep(real_t t, real_t dt) {
+    const ExecutionSpace space;
+    const int B = B_, S = S_, K = K_, I = I_, r = latent_dim_;
+    using Range = Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>>;
+    if (point_method_) {
+      Kokkos::parallel_for("mpmrom::rom::point_sources", Range(space, 0, long(B) * K),
+                           rom::MaterialPointSources<Manifold, MemorySpace>{
+                               manifold_, points_X_, points_mass_, points_volume_, xhat_, xhatdot_, loads_, material_,
+                               t, dt, apic_, sources_, sample_x_, sample_J_, flags_});
+    } else {
+      Kokkos::parallel_for("mpmrom::rom::sample_kinematics", Range(space, 0, long(B) * S),
+                           rom::SampleKinematics<Manifold, MemorySpace>{manifold_, samples_X_, xhat_, xhatdot_,
+                                                                        sample_x_, sample_J_});
+      Kokkos::parallel_for("mpmrom::rom::quadrature_sources", Range(space, 0, long(B) * K),
+                           rom::QuadratureSources<Manifold, MemorySpace>{
+                               manifold_, quadrature_x_, quadrature_w_, domain_, density_, newton_,
+                               settings_.inversion_fallback, xhat_, xhatdot_, loads_, material_, t, dt, apic_,
+                               reference_, converged_, sources_, failures_, step_failures_, fallbacks_, flags_});
+      Kokkos::parallel_for("mpmrom::rom::check_inversions", Kokkos::RangePolicy<ExecutionSpace>(space, 0, B),
+                           rom::CheckInversions<MemorySpace>{step_failures_, max_failed_inversions_, flags_});
+    }
+    Kokkos::parallel_for("mpmrom::rom::gather_nodes", Range(space, 0, long(B) * I),
+                         rom::GatherNodeVelocities<MemorySpace>{grid_, nodes_, offsets_, node_sources_, sources_,
+                                                                loads_, t, dt, node_v_});
+    // Into a device View: only the last sub-step's speed is read (at the frame's end), so sub-steps never wait.
+    Kokkos::parallel_reduce("mpmrom::rom::g2p_samples", Range(space, 0, long(B) * S),
+                            rom::SampleVelocities<MemorySpace>{grid_, node_slot_, sample_x_, node_v_, sample_v_,
+                                                               flags_},
+                            Kokkos::Max<real_t, MemorySpace>(fastest_sample_));
+    using Projection = rom::ProjectVelocities<ExecutionSpace, MemorySpace>;
+    const auto project = [&]() {
+      Kokkos::parallel_for("mpmrom::rom::project",
+                           Kokkos::TeamPolicy<ExecutionSpace>(space, B, Kokkos::AUTO)
+                               .set_scratch_size(0, Kokkos::PerTeam(Projection::scratch_bytes(r))),
+                           Projection{r, sample_J_, sample_v_, xhat_, xhat_next_, xhatdot_next_, guard_, dt, flags_,
+                                      max_condition_, regularized_});
+    };
+    Kokkos::deep_copy(space, xhat_next_, xhat_);
+    Kokkos::deep_copy(space, xhatdot_next_, xhatdot_);
+    project();
+    // Re-project with J at the trial next state, so that the new state's own velocity field J(xhat_n+1) xhatdot
+    // reproduces the transferred velocities (with J(xhat_n) the manifold's curvature is counted twice).
+    for (int iteration = 0; iteration < settings_.projection_iterations; ++iteration) {
+      Kokkos::parallel_for("mpmrom::rom::sample_jacobians", Range(space, 0, long(B) * S),
+                           rom::SampleKinematics<Manifold, MemorySpace>{manifold_, samples_X_, xhat_next_,
+                                                                        xhatdot_next_, trial_x_, sample_J_});
+      project();
+    }
+    Kokkos::deep_copy(space, xhat_, xhat_next_);
+    Kokkos::deep_copy(space, xhatdot_, xhatdot_next_);
+  }
+
+  // Rollouts whose fatal flags went up in this frame stop here; the others have completed one more frame.
+  void update_outcomes(double time) {
+    const auto flags = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), flags_);
+    for (int b = 0; b < B_; ++b) {
+      RolloutOutcome& outcome = outcomes_[b];
+      const bool fatal = flags(b) & rom::fatal_flags;
+      if (fatal && !(outcome.flags & rom::fatal_flags)) {
+        outcome.stopped_at = time;
+        outcome.message = "stopped at t = " + std::to_string(time) + " s: " + describe_flags(flags(b));
+      }
+      if (!fatal) outcome.frames_completed = frame_ + 1;
+      outcome.flags = flags(b);
+    }
+  }
+
+  Manifold manifold_;
+  RomSettings settings_;
+  int B_, S_, I_;
+  bool point_method_;
+  int K_;
+  GridGeometry<real_t> grid_;
+  ElasticMaterial<real_t> material_;
+  bool apic_;
+  double wave_speed_, cfl_, dx_;
+  real_t density_;
+  rom::ReferenceDomain domain_;
+  int max_failed_inversions_;
+  rom::ProjectionGuard guard_;
+  rom::NewtonSettings newton_;
+  real_t max_speed_ = 0;  // fastest sample at the end of the last frame, for the next frame's time step
+
+  Matrix points_X_, samples_X_, quadrature_x_;
+  Vector points_mass_, points_volume_, quadrature_w_;
+  IndexView nodes_, offsets_, node_sources_, node_slot_;
+  Kokkos::View<rom::RolloutLoads*, MemorySpace> loads_;
+  Matrix xhat_, xhatdot_, xhat_next_, xhatdot_next_;
+  rom::SourceView<MemorySpace> sources_;
+  Cube sample_x_, sample_v_, node_v_, trial_x_, reference_;
+  Quad sample_J_;
+  Kokkos::View<unsigned char**, MemorySpace> converged_;
+  Kokkos::View<int*, MemorySpace> failures_, flags_, step_failures_, fallbacks_, regularized_;
+  Vector max_condition_;
+  Kokkos::View<real_t, MemorySpace> fastest_sample_;
+};
+
+// The batch of `cases` (values in the order of `names`) of the scene file at scene_path, on the model's network, at
+// the scene's initial state projected onto the manifold. Throws std::runtime_error when the cases cannot share a
+// batch or the model does not fit the scene.
+std::unique_ptr<BatchStepperBase> create_stepper(const Model& model, const std::string& scene_path,
+                                                 const std::vector<std::string>& names,
+                                                 const std::vector<RolloutCase>& cases, const RomSettings& settings,
+                                                 const HyperReduction& reduction);
+
+// Runs the batch to its horizon, filling result's times, latent trajectories (every output frame), outcomes and
+// step timing.
+void record_rollouts(BatchStepperBase& stepper, RomResult& result,
+                     const std::function<void(const RomProgress&)>& progress);
+
+// Advances the batch from (xhat0, xhatdot0) (rollouts x r, row-major) through the scene's output times on manifold,
+// filling result's times, latent trajectories, outcomes and step timing. max_latent_speed: the energy detector's
+// limit on |xhatdot| (0: none).
+template <class Manifold>
+void step_batch(const Manifold& manifold, int latent_dim, const ReferencePoints& model, const Scene& scene,
+                const std::vector<rom::RolloutLoads>& host_loads, const std::vector<double>& xhat0,
+                const std::vector<double>& xhatdot0, const RomSettings& settings, double max_latent_speed,
+                const HyperReduction& h, RomResult& result, const std::function<void(const RomProgress&)>& progress) {
+  BatchStepper<Manifold> stepper(manifold, latent_dim, model, scene, host_loads, xhat0, xhatdot0, settings,
+                                 max_latent_speed, h);
+  record_rollouts(stepper, result, progress);
+}
 
 }  // namespace mpmrom::impl
