@@ -10,6 +10,7 @@
 #include <map>
 #include <unistd.h>
 
+#include "atomic_file.hpp"
 #include "bench.hpp"
 #include "evaluation.hpp"
 #include "pipeline.hpp"
@@ -44,12 +45,18 @@ std::string p2g_name(mpmrom::P2GStrategy strategy) {
   return "";
 }
 
+// How much goes to stderr: nothing (--quiet), progress lines thinned out when stderr is not a terminal (a log file),
+// or every line (--verbose).
+enum class Verbosity { quiet, normal, verbose };
+Verbosity verbosity = Verbosity::normal;
+
+bool every_progress_line() { return verbosity == Verbosity::verbose || isatty(STDERR_FILENO); }
+
 // One progress line per tenth of a run (every frame on a terminal), with the rate and the time left.
 void report_progress(const mpmrom::SimulationProgress& p, bool quiet) {
   if (quiet) return;
-  const bool terminal = isatty(STDERR_FILENO);
   const int tenth = std::max(1, p.num_frames / 10);
-  if (!terminal && p.frame % tenth != 0 && p.frame != p.num_frames) return;
+  if (!every_progress_line() && p.frame % tenth != 0 && p.frame != p.num_frames) return;
   const double rate = p.seconds > 0 ? double(p.steps) * double(p.num_particles) / p.seconds : 0;
   const double left = p.frame > 0 ? p.seconds * (p.num_frames - p.frame) / p.frame : 0;
   std::fprintf(stderr, "  frame %d/%d  t = %.4f s  %ld steps  %.3g particle-steps/s  %.1f s left\n", p.frame,
@@ -70,9 +77,8 @@ std::string duration_string(double seconds) {
 // One line per epoch on a terminal, about 20 per run otherwise (and every validated epoch).
 void report_training(const mpmrom::TrainingProgress& p, bool quiet) {
   if (quiet) return;
-  const bool terminal = isatty(STDERR_FILENO);
   const int twentieth = std::max(1, p.epochs / 20);
-  if (!terminal && !p.validated && p.epoch % twentieth != 0 && p.epoch != p.epochs) return;
+  if (!every_progress_line() && !p.validated && p.epoch % twentieth != 0 && p.epoch != p.epochs) return;
   std::fprintf(stderr, "  epoch %d/%d  loss %.3e (x %.2e F %.2e v %.2e)", p.epoch, p.epochs, p.train.total,
                p.train.position, p.train.gradient, p.train.velocity);
   if (p.validated) std::fprintf(stderr, "  validation %.3e", p.validation.total);
@@ -164,8 +170,14 @@ int main(int argc, char** argv) {
   info->add_flag("--json", info_json, "One JSON object on stdout");
   info->footer("Example: mpmrom info --json");
 
-  bool quiet = false;
-  app.add_flag("-q,--quiet", quiet, "No progress on stderr");
+  bool quiet = false, verbose = false;
+  auto* quiet_flag = app.add_flag("-q,--quiet", quiet, "Nothing on stderr but errors and warnings");
+  app.add_flag("-v,--verbose", verbose,
+               "Every progress line (also when stderr is not a terminal), after a line naming the backend and device")
+      ->excludes(quiet_flag);
+  app.set_config("--config", "",
+                 "Read options from a TOML file: top-level keys for global options, a [section] per subcommand "
+                 "(docs/cli.md)");
 
   std::string scene_path, out_path;
   std::vector<std::string> overrides;
@@ -428,8 +440,15 @@ int main(int argc, char** argv) {
     return app.exit(e);
   }
 
+  verbosity = quiet ? Verbosity::quiet : verbose ? Verbosity::verbose : Verbosity::normal;
   try {
     mpmrom::KokkosSession kokkos(threads, device);
+    if (verbose) {
+      const auto runtime = mpmrom::runtime_info();
+      std::cerr << "mpmrom " << runtime.version << " (" << runtime.git_commit << "): " << runtime.backend << ", "
+                << runtime.threads << " threads, " << runtime.device << ", Kokkos " << runtime.kokkos_version << ", "
+                << runtime.precision << "\n";
+    }
     const auto progress = [quiet](const mpmrom::SimulationProgress& p) { report_progress(p, quiet); };
     if (*simulate) {
       const mpmrom::Scene scene = mpmrom::load_scene(scene_path, overrides);
@@ -460,6 +479,7 @@ int main(int argc, char** argv) {
                                                  search, pipeline_log);
       if (train_json) std::cout << decision.dump() << "\n";
     } else if (*train) {
+      mpmrom::require_writable_output(model_path);
       if (!quiet) std::cerr << "mpmrom train: reading " << train_inputs.size() << " input(s)\n";
       const auto data = mpmrom::load_training_data(train_inputs);
       if (!quiet)
@@ -506,6 +526,7 @@ int main(int argc, char** argv) {
       }
     }
     if (*rollout) {
+      mpmrom::require_writable_output(rom_path);
       rom_settings.method = mpmrom::rom_method_from_string(rom_method);
       rom_settings.selection = mpmrom::sample_selection_from_string(rom_selection);
       rom_settings.validate();
@@ -522,7 +543,7 @@ int main(int argc, char** argv) {
                   << reduction.summary().dump() << "\n";
       const auto result = mpmrom::run_rollouts(
           model, scene_path, names, cases, rom_settings, reduction, [quiet](const mpmrom::RomProgress& p) {
-            if (quiet || (!isatty(STDERR_FILENO) && p.frame % std::max(1, p.frames / 5) != 0)) return;
+            if (quiet || (!every_progress_line() && p.frame % std::max(1, p.frames / 5) != 0)) return;
             std::fprintf(stderr, "  frame %d/%d  t = %.4f s  %ld steps  %.3g s\n", p.frame, p.frames, p.time, p.steps,
                          p.seconds);
           });

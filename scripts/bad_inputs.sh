@@ -59,6 +59,8 @@ row "scene file missing" "$mpmrom" -q simulate missing.toml --out out.h5
 
 row "unwritable output path (/proc)" "$mpmrom" -q simulate "$seed" --out /proc/out.h5
 row "output in a missing directory" "$mpmrom" -q simulate "$seed" --out no/such/dir/out.h5
+row "model output in a missing directory (checked before training)" "$mpmrom" -q train "$corpus/snapshot.h5" --out no/dir/m.h5
+row "ROM output in a missing directory (checked before the rollouts)" "$mpmrom" -q rollout "$corpus/model.h5" "$seed" --out no/dir/rom.h5
 
 head -c 6000 "$corpus/snapshot.h5" > truncated.h5
 mkdir -p sweep/runs && cp truncated.h5 sweep/runs/run_000.h5

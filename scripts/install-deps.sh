@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Installs the Debian packages mpmrom builds with. Idempotent: does nothing when they are all present.
-# Runs as root (or through sudo when available).
+# Installs the Debian packages mpmrom builds with; with --render also those that render pictures (ParaView's
+# pvbatch under a virtual X server, Pillow for the GIFs: scripts/render.sh). Idempotent: does nothing when they are
+# all present. Runs as root (or through sudo when available).
 set -euo pipefail
 
 packages=(
@@ -9,6 +10,9 @@ packages=(
   libgtest-dev libbenchmark-dev gnuplot-nox
   clang libclang-rt-dev libtrilinos-kokkos-dev
 )
+if [ "${1:-}" = "--render" ]; then
+  packages+=(paraview xvfb xauth python3-pil)
+fi
 
 missing=()
 for p in "${packages[@]}"; do

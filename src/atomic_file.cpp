@@ -36,6 +36,16 @@ AtomicFile::AtomicFile(std::string final_path)
     throw std::runtime_error("cannot write '" + final_path_ + "': there is no directory '" + directory.string() + "'");
 }
 
+void require_writable_output(const std::string& path) {
+  const AtomicFile probe(path);  // checks the directory
+  const std::filesystem::path directory = std::filesystem::path(path).parent_path();
+  std::error_code error;
+  if (std::filesystem::is_directory(path, error))
+    throw std::runtime_error("cannot write '" + path + "': it is a directory");
+  if (::access(directory.empty() ? "." : directory.c_str(), W_OK) != 0)
+    throw std::runtime_error("cannot write '" + path + "': " + std::strerror(errno));
+}
+
 AtomicFile::~AtomicFile() {
   if (committed_) return;
   std::error_code ignored;  // a destructor cannot report, and a temporary left behind harms nothing

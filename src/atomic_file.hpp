@@ -31,4 +31,8 @@ class AtomicFile {
 
 void write_file_atomically(const std::string& path, const std::string& contents);
 
+// Throws the error AtomicFile(path) would meet later (no such directory, not writable, a directory in the way): for
+// commands that write their output only after minutes of work.
+void require_writable_output(const std::string& path);
+
 }  // namespace mpmrom

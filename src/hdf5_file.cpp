@@ -373,16 +373,21 @@ Dataset Group::create_growing_dataset(const std::string& name, Element type,
   return Dataset(std::move(dataset), file_name_, child_path(name));
 }
 
-Dataset Group::create_entry_view(const std::string& name, const Dataset& source, std::size_t index) {
+Dataset Group::create_entry_view(const std::string& name, const Dataset& source,
+                                 const std::vector<std::size_t>& index) {
   const Handle source_space(H5Dget_space(source.id()));
   const auto source_dims = dataset_dims(source, source_space);
-  if (source_dims.size() < 2 || index >= source_dims[0]) {
-    refuse(file_name_, "dataset " + source.path(), "has no entry " + std::to_string(index) + " to view");
-  }
+  std::string index_text;
+  for (const std::size_t i : index) index_text += (index_text.empty() ? "" : ", ") + std::to_string(i);
+  bool inside = !index.empty() && index.size() < source_dims.size();
+  for (std::size_t d = 0; inside && d < index.size(); ++d) inside = index[d] < source_dims[d];
+  if (!inside) refuse(file_name_, "dataset " + source.path(), "has no entry (" + index_text + ") to view");
   std::vector<hsize_t> start(source_dims.size(), 0), count = source_dims;
-  start[0] = index;
-  count[0] = 1;
-  const std::vector<hsize_t> view_dims(source_dims.begin() + 1, source_dims.end());
+  for (std::size_t d = 0; d < index.size(); ++d) {
+    start[d] = index[d];
+    count[d] = 1;
+  }
+  const std::vector<hsize_t> view_dims(source_dims.begin() + std::ptrdiff_t(index.size()), source_dims.end());
   const Handle view_space(H5Screate_simple(static_cast<int>(view_dims.size()), view_dims.data(), nullptr));
   const Handle type(H5Dget_type(source.id()));
   const Handle properties(H5Pcreate(H5P_DATASET_CREATE));

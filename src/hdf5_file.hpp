@@ -116,9 +116,10 @@ class Group : public Object {
   // A dataset of shape (0, entry_shape...) that grows along its first dimension by Dataset::append, one entry per
   // chunk (entries over 1 GiB span several) so that each append is one contiguous write.
   Dataset create_growing_dataset(const std::string& name, Element type, const std::vector<std::size_t>& entry_shape);
-  // A virtual dataset showing entry `index` along the first dimension of `source`, a dataset of the same file: HDF5
-  // stores the mapping, not a copy, and readers see an ordinary dataset of shape source.shape()[1:].
-  Dataset create_entry_view(const std::string& name, const Dataset& source, std::size_t index);
+  // A virtual dataset showing entry `index` along the leading dimensions of `source`, a dataset of the same file
+  // (index {2, 5} of a (rollouts, frames, n, 3) array: rollout 2's frame 5): HDF5 stores the mapping, not a copy,
+  // and readers see an ordinary dataset of shape source.shape()[index.size():].
+  Dataset create_entry_view(const std::string& name, const Dataset& source, const std::vector<std::size_t>& index);
   Dataset dataset(const std::string& name) const;
   void remove(const std::string& name);  // unlinks a child; its space in the file is not reclaimed
 

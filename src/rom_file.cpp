@@ -6,6 +6,8 @@
 #include "atomic_file.hpp"
 #include "hdf5_file.hpp"
 #include "impl/file_checks.hpp"
+#include "impl/xdmf.hpp"
+#include "snapshot.hpp"
 
 namespace mpmrom {
 namespace {
@@ -13,10 +15,43 @@ namespace {
 using impl::bad;
 
 template <class T>
-void write_dataset(hdf5::Group& group, const std::string& name, hdf5::Element type, const std::vector<T>& values,
-                   const std::vector<std::size_t>& shape) {
+hdf5::Dataset write_dataset(hdf5::Group& group, const std::string& name, hdf5::Element type,
+                            const std::vector<T>& values, const std::vector<std::size_t>& shape) {
   auto dataset = group.create_dataset(name, type, shape);
   if (impl::product(shape) > 0) dataset.write(values.data());
+  return dataset;
+}
+
+// Views /xdmf/<array>/<rollout>/<frame> of the decoded fields and the side file's blocks, one per rollout, named by
+// its parameter values.
+std::vector<impl::XdmfBlock> write_decoded_views(hdf5::File& file, const RomResult& res, std::size_t num_points,
+                                                 const std::vector<const hdf5::Dataset*>& sources) {
+  const std::size_t B = res.cases.size(), frames = res.times.size();
+  hdf5::Group xdmf = file.create_group("xdmf");
+  impl::write_xdmf_vertices(xdmf, num_points);
+  for (const hdf5::Dataset* source : sources) {
+    hdf5::Group array = xdmf.create_group(source->path().substr(source->path().rfind('/') + 1));  // "x", "v", "F"
+    for (std::size_t b = 0; b < B; ++b) {
+      hdf5::Group rollout = array.create_group(std::to_string(b));
+      for (std::size_t frame = 0; frame < frames; ++frame)
+        rollout.create_entry_view(std::to_string(frame), *source, {b, frame});
+    }
+  }
+  std::vector<impl::XdmfBlock> blocks;
+  for (std::size_t b = 0; b < B; ++b) {
+    std::string name = "rollout " + std::to_string(b);
+    for (std::size_t k = 0; k < res.parameter_names.size(); ++k)
+      name += (k == 0 ? " (" : ", ") + res.parameter_names[k] + " = " + impl::number_string(res.cases[b].values[k]) +
+              (k + 1 == res.parameter_names.size() ? ")" : "");
+    const std::string at = "/" + std::to_string(b);
+    blocks.push_back({name,
+                      "/xdmf/x" + at,
+                      4,
+                      {{"velocity", 3, 4, "/xdmf/v" + at, true},
+                       {"F", 9, 4, "/xdmf/F" + at, true},
+                       {"X", 3, 8, "/decoded/X", false}}});
+  }
+  return blocks;
 }
 
 std::vector<std::int64_t> to_int64(const std::vector<int>& values) { return {values.begin(), values.end()}; }
@@ -54,7 +89,9 @@ void save_rom(const std::string& path, const RomFile& rom) {
     impl::require_finite(path, "decoded v", rom.decoded_v.data(), {rom.decoded_v.size()});
     impl::require_finite(path, "decoded F", rom.decoded_F.data(), {rom.decoded_F.size()});
   }
+  if (n > 0 && xdmf_path_for(path) == path) bad(path, "a ROM file cannot have the extension .xmf of its XDMF side file");
   AtomicFile out(path);
+  std::vector<impl::XdmfBlock> blocks;
   {
     hdf5::File file = hdf5::File::create(out.temporary_path());
     impl::write_file_identity(file, rom_format, rom_format_version);
@@ -130,12 +167,21 @@ void save_rom(const std::string& path, const RomFile& rom) {
       const std::vector<float> x(rom.decoded_x.begin(), rom.decoded_x.end());
       const std::vector<float> v(rom.decoded_v.begin(), rom.decoded_v.end());
       const std::vector<float> F(rom.decoded_F.begin(), rom.decoded_F.end());
-      write_dataset(decoded, "x", hdf5::Element::float32, x, {B, frames, n, 3});
-      write_dataset(decoded, "v", hdf5::Element::float32, v, {B, frames, n, 3});
-      write_dataset(decoded, "F", hdf5::Element::float32, F, {B, frames, n, 3, 3});
+      const auto x_set = write_dataset(decoded, "x", hdf5::Element::float32, x, {B, frames, n, 3});
+      const auto v_set = write_dataset(decoded, "v", hdf5::Element::float32, v, {B, frames, n, 3});
+      const auto F_set = write_dataset(decoded, "F", hdf5::Element::float32, F, {B, frames, n, 3, 3});
+      blocks = write_decoded_views(file, res, n, {&x_set, &v_set, &F_set});
     }
     file.set_integer_attribute("complete", 1);
   }
+  if (n == 0) {
+    out.commit();
+    return;
+  }
+  // Decoded fields get an XDMF side file (ParaView opens the batch as a time series, a block per rollout); it goes
+  // first, so that a ROM file under its final name always has it.
+  write_file_atomically(xdmf_path_for(path), impl::xdmf_text(std::filesystem::path(path).filename().string(),
+                                                             rom.scene_name + " (reduced model)", n, res.times, blocks));
   out.commit();
 }
 

@@ -13,6 +13,7 @@
 #include <stdexcept>
 
 #include "impl/file_checks.hpp"
+#include "impl/xdmf.hpp"
 #include "runtime.hpp"
 
 namespace mpmrom {
@@ -50,76 +51,27 @@ std::size_t validated_num_points(const std::string& path, const SnapshotHeader& 
   return num_points;
 }
 
-std::string xml_escaped(const std::string& text) {
-  std::string escaped;
-  for (const char c : text) {
-    switch (c) {
-      case '&':
-        escaped += "&amp;";
-        break;
-      case '<':
-        escaped += "&lt;";
-        break;
-      case '>':
-        escaped += "&gt;";
-        break;
-      case '"':
-        escaped += "&quot;";
-        break;
-      default:
-        escaped += c;
-    }
-  }
-  return escaped;
+// The side file's arrays: positions, velocity and F per frame (views /xdmf/<array>/<frame>), X and mass.
+std::vector<impl::XdmfBlock> xdmf_blocks(const std::string& scene_name) {
+  constexpr int bytes = int(sizeof(real_t));
+  return {{scene_name,
+           "/xdmf/x",
+           bytes,
+           {{"velocity", 3, bytes, "/xdmf/v", true},
+            {"F", 9, bytes, "/xdmf/F", true},
+            {"X", 3, bytes, "/reference/X", false},
+            {"mass", 1, bytes, "/reference/mass", false}}}};
 }
 
-// XDMF 3 for ParaView: a temporal collection of point clouds, the HDF5 file named relative to the side file so that
-// the pair can be moved together. ParaView's Xdmf3 readers cannot read HyperSlab DataItems (they size and type an array
-// before reading it), so each frame's arrays are plain virtual datasets /xdmf/<array>/<frame>, which every XDMF
-// reader reads; /xdmf/vertices gives the Xdmf3 readers the one-vertex cells they need to draw the points.
-std::string xdmf_text(const std::string& h5_name, const std::string& scene_name, std::size_t num_points,
-                      const std::vector<double>& times) {
-  const std::string n = std::to_string(num_points), file = xml_escaped(h5_name);
-  const std::string real = "NumberType=\"Float\" Precision=\"" + std::to_string(sizeof(real_t)) + "\"";
-  const auto item = [&](const std::string& dimensions, const std::string& type, const std::string& dataset) {
-    return "<DataItem Dimensions=\"" + dimensions + "\" " + type + " Format=\"HDF\">" + file + ":" + dataset +
-           "</DataItem>";
-  };
-  std::ostringstream out;
-  out << "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n  <Domain>\n"
-      << "    <Grid Name=\"" << xml_escaped(scene_name) << "\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
-  for (std::size_t frame = 0; frame < times.size(); ++frame) {
-    const std::string k = std::to_string(frame);
-    out << "      <Grid Name=\"frame " << frame << "\" GridType=\"Uniform\">\n"
-        << "        <Time Value=\"" << number_string(times[frame], 17) << "\"/>\n"
-        << "        <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"" << n << "\" NodesPerElement=\"1\">"
-        << item(n, "NumberType=\"Int\" Precision=\"8\"", "/xdmf/vertices") << "</Topology>\n"
-        << "        <Geometry GeometryType=\"XYZ\">" << item(n + " 3", real, "/xdmf/x/" + k) << "</Geometry>\n"
-        << "        <Attribute Name=\"velocity\" AttributeType=\"Vector\" Center=\"Node\">"
-        << item(n + " 3", real, "/xdmf/v/" + k) << "</Attribute>\n"
-        << "        <Attribute Name=\"F\" AttributeType=\"Tensor\" Center=\"Node\">"
-        << item(n + " 3 3", real, "/xdmf/F/" + k) << "</Attribute>\n"
-        << "        <Attribute Name=\"X\" AttributeType=\"Vector\" Center=\"Node\">"
-        << item(n + " 3", real, "/reference/X") << "</Attribute>\n"
-        << "        <Attribute Name=\"mass\" AttributeType=\"Scalar\" Center=\"Node\">"
-        << item(n, real, "/reference/mass") << "</Attribute>\n"
-        << "      </Grid>\n";
-  }
-  out << "    </Grid>\n  </Domain>\n</Xdmf>\n";
-  return out.str();
-}
-
-// The datasets xdmf_text refers to: the vertex list and, per frame k, views /xdmf/x/k, /xdmf/v/k and /xdmf/F/k.
+// The datasets the side file refers to: the vertex list and, per frame k, views /xdmf/x/k, /xdmf/v/k and /xdmf/F/k.
 void write_xdmf_views(hdf5::File& file, std::size_t num_points, std::size_t num_frames,
                       const std::vector<const hdf5::Dataset*>& sources) {
   hdf5::Group xdmf = file.create_group("xdmf");
-  std::vector<std::int64_t> vertices(num_points);
-  std::iota(vertices.begin(), vertices.end(), std::int64_t(0));
-  xdmf.create_dataset("vertices", hdf5::Element::int64, {num_points}).write(vertices.data());
+  impl::write_xdmf_vertices(xdmf, num_points);
   for (const hdf5::Dataset* source : sources) {
     hdf5::Group views = xdmf.create_group(source->path().substr(1));  // "/x" -> "x"
     for (std::size_t frame = 0; frame < num_frames; ++frame) {
-      views.create_entry_view(std::to_string(frame), *source, frame);
+      views.create_entry_view(std::to_string(frame), *source, {frame});
     }
   }
 }
@@ -211,7 +163,8 @@ void SnapshotWriter::finish(const std::string& h5_path, const std::string& failu
   for (hdf5::Dataset* dataset : {&time_, &x_, &v_, &F_, &C_}) dataset->close();
   file_.close();
   std::ofstream xdmf(xdmf_.temporary_path(), std::ios::trunc);
-  xdmf << xdmf_text(std::filesystem::path(h5_path).filename().string(), scene_name_, num_points_, times_);
+  xdmf << impl::xdmf_text(std::filesystem::path(h5_path).filename().string(), scene_name_, num_points_, times_,
+                          xdmf_blocks(scene_name_));
   xdmf.close();
   if (!xdmf) bad(xdmf_.temporary_path(), std::string("cannot write the XDMF side file: ") + std::strerror(errno));
   // The side file first: a snapshot under its final name always has its XDMF (a resumed sweep keeps such runs).

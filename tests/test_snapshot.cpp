@@ -394,5 +394,41 @@ TEST_F(SnapshotTest, RomFileWithManyRolloutsRoundTrips) {
   }
 }
 
+// Decoded rollouts get an XDMF side file: a temporal collection whose frames hold one point cloud per rollout, each
+// reading a view of its own slice of /decoded.
+TEST_F(SnapshotTest, RomFileWithDecodedFieldsHasAnXdmfSideFile) {
+  constexpr std::size_t rollouts = 2, frames = 3, n = 4;
+  RomFile rom;
+  RomResult& res = rom.result;
+  res.parameter_names = {"push"};
+  res.latent_dim = 1;
+  res.times = {0.0, 0.5, 1.0};
+  for (std::size_t b = 0; b < rollouts; ++b) {
+    res.cases.push_back({{double(b)}, ""});
+    res.outcomes.push_back({});
+    res.xhat.insert(res.xhat.end(), frames, 0.0);
+    res.xhatdot.insert(res.xhatdot.end(), frames, 0.0);
+  }
+  for (std::size_t i = 0; i < 3 * n; ++i) rom.decoded_X.push_back(double(i));
+  for (std::size_t i = 0; i < rollouts * frames * n * 3; ++i) {
+    rom.decoded_x.push_back(0.5 * double(i));
+    rom.decoded_v.push_back(-double(i));
+  }
+  rom.decoded_F.assign(rollouts * frames * n * 9, 1.0);
+  save_rom(path("rom.h5"), rom);
+  ASSERT_TRUE(fs::exists(path("rom.xmf")));
+  const std::string xmf = file_text(path("rom.xmf"));
+  EXPECT_EQ(occurrences(xmf, "CollectionType=\"Spatial\""), frames);
+  EXPECT_EQ(occurrences(xmf, "GridType=\"Uniform\""), frames * rollouts);
+  EXPECT_NE(xmf.find("rollout 1 (push = 1)"), std::string::npos);
+  EXPECT_NE(xmf.find("rom.h5:/xdmf/x/1/2"), std::string::npos);
+  // The view of rollout 1, frame 2 holds that slice of /decoded/x.
+  const auto file = hdf5::File::open(path("rom.h5"));
+  const auto view = file.group("xdmf").group("x").group("1").dataset("2").read();
+  ASSERT_EQ(view.size(), n * 3);
+  for (std::size_t i = 0; i < n * 3; ++i) EXPECT_EQ(view[i], rom.decoded_x[(1 * frames + 2) * n * 3 + i]);
+  EXPECT_NO_THROW(load_rom(path("rom.h5")));
+}
+
 }  // namespace
 }  // namespace mpmrom::test
