@@ -304,6 +304,12 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   rollout->add_option("--decode-spacing", decode_spacing, "Lattice spacing (m) of --decode lattice");
   rollout->add_flag("--json", rollout_json, "Print a benchmark record (timings, hyper-reduction) on stdout");
+  mpmrom::RolloutCheckpoint rollout_checkpoint;
+  rollout->add_option("--checkpoint-seconds", rollout_checkpoint.seconds,
+                      "Seconds between checkpoints (ROM.h5.ckpt, at output frames)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
+  rollout->add_flag("--resume", rollout_checkpoint.resume, "Continue from ROM.h5.ckpt, left by a run that was stopped");
   rollout->footer("Example: mpmrom rollout poke_model.h5 scenes/poke_cylinder.toml --out rom.h5 --method node");
 
   std::vector<std::string> references;
@@ -541,12 +547,15 @@ int main(int argc, char** argv) {
       if (!quiet)
         std::cerr << "mpmrom rollout: " << cases.size() << " rollout(s), method " << rom_method << ", "
                   << reduction.summary().dump() << "\n";
+      rollout_checkpoint.path = rom_path + ".ckpt";
       const auto result = mpmrom::run_rollouts(
-          model, scene_path, names, cases, rom_settings, reduction, [quiet](const mpmrom::RomProgress& p) {
+          model, scene_path, names, cases, rom_settings, reduction,
+          [quiet](const mpmrom::RomProgress& p) {
             if (quiet || (!every_progress_line() && p.frame % std::max(1, p.frames / 5) != 0)) return;
             std::fprintf(stderr, "  frame %d/%d  t = %.4f s  %ld steps  %.3g s\n", p.frame, p.frames, p.time, p.steps,
                          p.seconds);
-          });
+          },
+          rollout_checkpoint);
       mpmrom::RomFile file;
       file.result = result;
       file.model_path = std::filesystem::absolute(model_path).string();
@@ -587,6 +596,8 @@ int main(int argc, char** argv) {
         }
       }
       mpmrom::save_rom(rom_path, file);
+      std::error_code no_checkpoint;
+      std::filesystem::remove(rollout_checkpoint.path, no_checkpoint);
       int failed = 0;
       for (std::size_t b = 0; b < cases.size(); ++b) {
         const auto& o = result.outcomes[b];

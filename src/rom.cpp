@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <limits>
 #include <map>
 #include <numeric>
@@ -688,7 +689,8 @@ std::string impl::describe_flags(int flags) {
 }
 
 void impl::record_rollouts(BatchStepperBase& stepper, RomResult& result,
-                           const std::function<void(const RomProgress&)>& progress) {
+                           const std::function<void(const RomProgress&)>& progress,
+                           const RolloutCheckpoint& checkpoint, const std::string& identity) {
   const std::size_t B = std::size_t(stepper.rollouts()), frames = std::size_t(stepper.frames());
   const std::size_t r = std::size_t(stepper.latent_dim());
   result.times = stepper.times();
@@ -704,11 +706,27 @@ void impl::record_rollouts(BatchStepperBase& stepper, RomResult& result,
         result.xhatdot[(b * frames + frame) * r + q] = xhatdot[b * r + q];
       }
   };
-  record();
+  BatchState saved;
+  if (!checkpoint.path.empty() && checkpoint.resume &&
+      load_rollout_checkpoint(checkpoint.path, identity, saved, result)) {
+    try {
+      stepper.restore(saved);
+    } catch (const std::exception& error) {
+      throw std::runtime_error(checkpoint.path + ": " + error.what());
+    }
+  } else {
+    record();
+  }
+  auto last_checkpoint = Clock::now();
   while (stepper.advance_frame()) {
     record();
     if (progress)
       progress({stepper.frame(), int(frames) - 1, stepper.time(), stepper.steps(), stepper.step_seconds()});
+    if (!checkpoint.path.empty() && stepper.frame() + 1 < int(frames) &&
+        seconds_since(last_checkpoint) >= checkpoint.seconds) {
+      save_rollout_checkpoint(checkpoint.path, identity, stepper.state(), result);
+      last_checkpoint = Clock::now();
+    }
   }
   result.steps = stepper.steps();
   result.step_seconds = stepper.step_seconds();
@@ -768,6 +786,27 @@ std::string training_range_warning(const Model& model, const std::vector<std::st
   }
   return warning.empty() ? warning : warning + " (extrapolation: expect larger errors)";
 }
+
+namespace {
+
+// FNV-1a over what makes a batch: the network's weights, the scene file, the settings and every rollout's values.
+std::string batch_identity(const Model& model, const std::string& scene_path, const std::vector<std::string>& names,
+                           const std::vector<RolloutCase>& cases, const RomSettings& settings) {
+  std::uint64_t hash = 1469598103934665603ULL;
+  const auto add = [&](const void* data, std::size_t bytes) {
+    for (std::size_t i = 0; i < bytes; ++i) hash = (hash ^ static_cast<const unsigned char*>(data)[i]) * 1099511628211ULL;
+  };
+  add(model.weights.data(), model.weights.size() * sizeof(double));
+  std::ifstream scene(scene_path, std::ios::binary);
+  const std::string scene_text((std::istreambuf_iterator<char>(scene)), std::istreambuf_iterator<char>());
+  const std::string text = scene_text + settings.to_json().dump();
+  add(text.data(), text.size());
+  for (const auto& name : names) add(name.data(), name.size() + 1);
+  for (const auto& c : cases) add(c.values.data(), c.values.size() * sizeof(double));
+  return std::to_string(hash);
+}
+
+}  // namespace
 
 std::unique_ptr<impl::BatchStepperBase> impl::create_stepper(const Model& model, const std::string& scene_path,
                                                             const std::vector<std::string>& names,
@@ -834,7 +873,8 @@ std::unique_ptr<impl::BatchStepperBase> impl::create_stepper(const Model& model,
 
 RomResult run_rollouts(const Model& model, const std::string& scene_path, const std::vector<std::string>& names,
                        const std::vector<RolloutCase>& cases, const RomSettings& settings,
-                       const HyperReduction& reduction, const std::function<void(const RomProgress&)>& progress) {
+                       const HyperReduction& reduction, const std::function<void(const RomProgress&)>& progress,
+                       const RolloutCheckpoint& checkpoint) {
   const auto start = Clock::now();
   RomResult result;
   result.parameter_names = names;
@@ -842,7 +882,8 @@ RomResult run_rollouts(const Model& model, const std::string& scene_path, const 
   result.latent_dim = model.latent_dim;
   const auto stepper = impl::create_stepper(model, scene_path, names, cases, settings, reduction);
   result.setup_seconds = seconds_since(start);
-  impl::record_rollouts(*stepper, result, progress);
+  impl::record_rollouts(*stepper, result, progress, checkpoint,
+                        checkpoint.path.empty() ? "" : batch_identity(model, scene_path, names, cases, settings));
   for (std::size_t c = 0; c < cases.size(); ++c)
     result.outcomes[c].warning = training_range_warning(model, names, cases[c].values);
   return result;

@@ -121,11 +121,21 @@ double training_latent_speed(const Model& model);
 std::string training_range_warning(const Model& model, const std::vector<std::string>& names,
                                    const std::vector<double>& values);
 
+// Where a long batch of rollouts saves its state (docs/reliability.md): path empty for none. A checkpoint names its
+// batch (a hash of the model's weights, the scene file, the settings and the rollouts' parameters); one of another
+// batch is refused on resume.
+struct RolloutCheckpoint {
+  std::string path;
+  double seconds = 60;  // wall-clock time between checkpoints (taken at output frames)
+  bool resume = false;  // go on from the checkpoint at path if there is one
+};
+
 // Advances every case from the scene's initial state (projected onto the manifold) to its end time, recording the
 // latent state at the scene's output times. scene_path: the scene file whose parameters the cases set.
 RomResult run_rollouts(const Model& model, const std::string& scene_path, const std::vector<std::string>& names,
                        const std::vector<RolloutCase>& cases, const RomSettings& settings,
-                       const HyperReduction& reduction, const std::function<void(const RomProgress&)>& progress = {});
+                       const HyperReduction& reduction, const std::function<void(const RomProgress&)>& progress = {},
+                       const RolloutCheckpoint& checkpoint = {});
 
 // Decoded fields of one rollout at points X (n, 3): x, v (frames, n, 3) and F (frames, n, 3, 3) from the latent
 // states codes and rates (frames, r).

@@ -46,6 +46,18 @@ HyperReduction hyper_reduction_from_motion(const Scene& scene, const RomSettings
                                            const std::vector<int>& samples, const std::vector<double>& positions,
                                            std::size_t P, const std::vector<int>& next = {});
 
+// Everything a batch's future depends on, at an output frame: what a rollout checkpoint holds.
+struct BatchState {
+  int frame = 0;
+  long steps = 0;
+  double step_seconds = 0, max_speed = 0;
+  std::vector<double> xhat, xhatdot, max_condition;          // (rollouts, r), (rollouts, r), (rollouts)
+  std::vector<int> flags, failures, fallbacks, regularized;  // (rollouts)
+  std::vector<double> reference;                             // Algorithm 2 warm starts: (rollouts, sources, 3)
+  std::vector<int> converged;                                //   and whether each converged (rollouts, sources)
+  std::vector<RolloutOutcome> outcomes;                      // frames completed, stop time and message
+};
+
 // A batch of rollouts on the device and the step that advances it, one output interval at a time. The base class
 // hides the manifold's type, so that the public RolloutBatch (rollout_batch.hpp) can hold any network width.
 class BatchStepperBase {
@@ -66,6 +78,10 @@ class BatchStepperBase {
   virtual void latent(std::vector<double>& xhat, std::vector<double>& xhatdot) const = 0;
   // What has happened to each rollout so far: flags, stop time and message, counters, frames completed.
   virtual std::vector<RolloutOutcome> outcomes() const = 0;
+  // The batch's state now, and back to a saved one (of a batch of the same model, scene, settings and rollouts):
+  // advancing from a restored state repeats bit for bit what the saved batch did next.
+  virtual BatchState state() const = 0;
+  virtual void restore(const BatchState& state) = 0;
 
  protected:
   BatchStepperBase(int rollouts, int latent_dim, std::vector<double> times)
@@ -199,6 +215,56 @@ class BatchStepper final : public BatchStepperBase {
     xhatdot = download(xhatdot_);
   }
 
+  BatchState state() const override {
+    BatchState saved;
+    saved.frame = frame_;
+    saved.steps = steps_;
+    saved.step_seconds = step_seconds_;
+    saved.max_speed = double(max_speed_);
+    saved.xhat = download(xhat_);
+    saved.xhatdot = download(xhatdot_);
+    saved.max_condition = download(max_condition_);
+    saved.reference = download(reference_);
+    for (auto [view, values] : {std::pair{flags_, &saved.flags}, std::pair{failures_, &saved.failures},
+                                std::pair{fallbacks_, &saved.fallbacks}, std::pair{regularized_, &saved.regularized}}) {
+      const auto host = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), view);
+      values->assign(host.data(), host.data() + host.size());
+    }
+    const auto converged = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), converged_);
+    saved.converged.assign(converged.data(), converged.data() + converged.size());
+    saved.outcomes = outcomes_;
+    return saved;
+  }
+
+  void restore(const BatchState& saved) override {
+    const std::size_t B = std::size_t(B_), r = std::size_t(latent_dim_);
+    if (saved.frame < 0 || saved.frame >= frames() || saved.xhat.size() != B * r || saved.xhatdot.size() != B * r ||
+        saved.max_condition.size() != B || saved.flags.size() != B || saved.failures.size() != B ||
+        saved.fallbacks.size() != B || saved.regularized.size() != B || saved.outcomes.size() != B ||
+        saved.reference.size() != reference_.size() || saved.converged.size() != converged_.size())
+      throw std::runtime_error("the saved state is of another batch (frame or sizes differ)");
+    frame_ = saved.frame;
+    steps_ = saved.steps;
+    step_seconds_ = saved.step_seconds;
+    max_speed_ = real_t(saved.max_speed);
+    const auto fill = [](const auto& view, const auto& values) {
+      const auto host = Kokkos::create_mirror_view(view);
+      using Value = typename std::decay_t<decltype(host)>::value_type;
+      for (std::size_t i = 0; i < values.size(); ++i) host.data()[i] = Value(values[i]);
+      Kokkos::deep_copy(view, host);
+    };
+    fill(xhat_, saved.xhat);
+    fill(xhatdot_, saved.xhatdot);
+    fill(max_condition_, saved.max_condition);
+    fill(reference_, saved.reference);
+    fill(flags_, saved.flags);
+    fill(failures_, saved.failures);
+    fill(fallbacks_, saved.fallbacks);
+    fill(regularized_, saved.regularized);
+    fill(converged_, saved.converged);
+    outcomes_ = saved.outcomes;
+  }
+
   std::vector<RolloutOutcome> outcomes() const override {
     std::vector<RolloutOutcome> result = outcomes_;
     const auto condition = download(max_condition_);
@@ -328,9 +394,20 @@ std::unique_ptr<BatchStepperBase> create_stepper(const Model& model, const std::
                                                  const HyperReduction& reduction);
 
 // Runs the batch to its horizon, filling result's times, latent trajectories (every output frame), outcomes and
-// step timing.
+// step timing. With a checkpoint, the batch's state and the trajectories so far are saved there (atomically) at
+// the first output frame after every checkpoint.seconds; with checkpoint.resume, a checkpoint left there by a run of
+// the same batch is read first and the run goes on from it.
 void record_rollouts(BatchStepperBase& stepper, RomResult& result,
-                     const std::function<void(const RomProgress&)>& progress);
+                     const std::function<void(const RomProgress&)>& progress,
+                     const RolloutCheckpoint& checkpoint = {}, const std::string& identity = "");
+
+// A rollout checkpoint (HDF5, written atomically): the batch's state and the trajectories recorded so far
+// (result.xhat, result.xhatdot up to state.frame). load_rollout_checkpoint returns false when there is no file at
+// path, and throws when the file is damaged or of another batch (identity).
+void save_rollout_checkpoint(const std::string& path, const std::string& identity, const BatchState& state,
+                             const RomResult& result);
+bool load_rollout_checkpoint(const std::string& path, const std::string& identity, BatchState& state,
+                             RomResult& result);
 
 // Advances the batch from (xhat0, xhatdot0) (rollouts x r, row-major) through the scene's output times on manifold,
 // filling result's times, latent trajectories, outcomes and step timing. max_latent_speed: the energy detector's
