@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "model.hpp"
+#include "pushed_block.hpp"
 #include "rollout_batch.hpp"
 #include "simulate.hpp"
 #include "trainer.hpp"
@@ -20,40 +21,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// A 64-point block pushed by a force of three magnitudes (the fuzzers' seed scene): small enough to sweep and train
-// in a second.
-const char* const kScene = R"(
-name = "pushed_block"
-[parameters]
-push = 1.0
-[material]
-youngs_modulus = 1.0e4
-poisson_ratio = 0.3
-density = 1000.0
-[[body]]
-shape = "box"
-center = [0.0, 0.0, 0.0]
-size = [0.2, 0.2, 0.2]
-spacing = 0.05
-[grid]
-lo = [-0.5, -0.5, -0.5]
-hi = [0.5, 0.5, 0.5]
-dx = 0.1
-[[force]]
-lo = [-1.0, -1.0, 0.05]
-hi = [1.0, 1.0, 1.0]
-magnitude = "$push"
-theta_deg = 0.0
-phi_deg = 0.0
-[time]
-end_time = 0.04
-outputs = 4
-cfl = 0.4
-[design]
-kind = "full_factorial"
-push = [0.5, 1.0, 1.5]
-test = [1]
-)";
+// Three pushes; 4 output frames over 0.04 s.
+const std::string kScene = pushed_block_scene("pushed_block", 0.04, 4, 0.4, {0.5, 1.0, 1.5}, 1);
 
 class RolloutBatchApi : public ::testing::Test {
  protected:

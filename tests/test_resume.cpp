@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "model.hpp"
+#include "pushed_block.hpp"
 #include "rom_file.hpp"
 #include "snapshot.hpp"
 
@@ -30,39 +31,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// Five runs of a 64-point block pushed by a force: about 0.2 s each on one core, so a kill lands mid-sweep.
-const char* const kScene = R"(
-name = "resume_block"
-[parameters]
-push = 1.0
-[material]
-youngs_modulus = 1.0e4
-poisson_ratio = 0.3
-density = 1000.0
-[[body]]
-shape = "box"
-center = [0.0, 0.0, 0.0]
-size = [0.2, 0.2, 0.2]
-spacing = 0.05
-[grid]
-lo = [-0.5, -0.5, -0.5]
-hi = [0.5, 0.5, 0.5]
-dx = 0.1
-[[force]]
-lo = [-1.0, -1.0, 0.05]
-hi = [1.0, 1.0, 1.0]
-magnitude = "$push"
-theta_deg = 0.0
-phi_deg = 0.0
-[time]
-end_time = 0.5
-outputs = 10
-cfl = 0.2
-[design]
-kind = "full_factorial"
-push = [0.5, 0.75, 1.0, 1.25, 1.5]
-test = [2]
-)";
+// Five runs of the pushed block: about 0.2 s each on one core, so a kill lands mid-sweep.
+const std::string kScene = pushed_block_scene("resume_block", 0.5, 10, 0.2, {0.5, 0.75, 1.0, 1.25, 1.5}, 2);
 
 class Resume : public ::testing::Test {
  protected:
