@@ -2,6 +2,7 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
+#include <chrono>
 #include <cstdio>
 #include <exception>
 #include <cmath>
@@ -462,11 +463,20 @@ int main(int argc, char** argv) {
       mpmrom::simulate(scene, out_path, p2g, progress);
     }
     if (*sweep) {
+      // The sweep's time left from the runs simulated so far (runs kept from before take no time).
+      const auto sweep_start = std::chrono::steady_clock::now();
+      std::size_t simulated = 0;
       mpmrom::sweep(scene_path, sweep_dir, p2g,
                     [&](std::size_t run, std::size_t num_runs, const mpmrom::SweepRun& r, bool reused) {
+                      const double elapsed =
+                          std::chrono::duration<double>(std::chrono::steady_clock::now() - sweep_start).count();
+                      std::string left;
+                      if (simulated > 0)
+                        left = ", " + duration_string(elapsed / double(simulated) * double(num_runs - run)) + " left";
+                      if (!reused) ++simulated;
                       if (!quiet)
                         std::cerr << "mpmrom sweep: run " << run + 1 << "/" << num_runs << " (" << r.file << ", "
-                                  << (r.test ? "test" : "train") << (reused ? ", finished before: kept" : "")
+                                  << (r.test ? "test" : "train") << (reused ? ", finished before: kept" : "") << left
                                   << ")\n";
                     },
                     progress, sweep_resume);
@@ -550,10 +560,12 @@ int main(int argc, char** argv) {
       rollout_checkpoint.path = rom_path + ".ckpt";
       const auto result = mpmrom::run_rollouts(
           model, scene_path, names, cases, rom_settings, reduction,
-          [quiet](const mpmrom::RomProgress& p) {
+          [quiet, rollouts = cases.size()](const mpmrom::RomProgress& p) {
             if (quiet || (!every_progress_line() && p.frame % std::max(1, p.frames / 5) != 0)) return;
-            std::fprintf(stderr, "  frame %d/%d  t = %.4f s  %ld steps  %.3g s\n", p.frame, p.frames, p.time, p.steps,
-                         p.seconds);
+            const double rate = p.seconds > 0 ? double(p.steps) * double(rollouts) / p.seconds : 0;
+            const double left = p.frame > 0 ? p.seconds * (p.frames - p.frame) / p.frame : 0;
+            std::fprintf(stderr, "  frame %d/%d  t = %.4f s  %ld steps  %.3g rollout-steps/s  %s left\n", p.frame,
+                         p.frames, p.time, p.steps, rate, duration_string(left).c_str());
           },
           rollout_checkpoint);
       mpmrom::RomFile file;
