@@ -18,11 +18,11 @@ constexpr int checkpoint_format_version = 1;
 template <class T>
 void write_vector(hdf5::Group& group, const std::string& name, const std::vector<T>& values) {
   if constexpr (std::is_same_v<T, double>) {
-    auto dataset = group.create_dataset(name, hdf5::Element::float64, {values.size()});
+    auto dataset = group.create_dataset(name, hdf5::Element::float64, std::vector<std::size_t>{values.size()});
     if (!values.empty()) dataset.write(values.data());
   } else {
     const std::vector<std::int64_t> wide(values.begin(), values.end());
-    auto dataset = group.create_dataset(name, hdf5::Element::int64, {wide.size()});
+    auto dataset = group.create_dataset(name, hdf5::Element::int64, std::vector<std::size_t>{wide.size()});
     if (!wide.empty()) dataset.write(wide.data());
   }
 }
