@@ -225,13 +225,11 @@ class BatchStepper final : public BatchStepperBase {
     saved.xhatdot = download(xhatdot_);
     saved.max_condition = download(max_condition_);
     saved.reference = download(reference_);
-    for (auto [view, values] : {std::pair{flags_, &saved.flags}, std::pair{failures_, &saved.failures},
-                                std::pair{fallbacks_, &saved.fallbacks}, std::pair{regularized_, &saved.regularized}}) {
-      const auto host = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), view);
-      values->assign(host.data(), host.data() + host.size());
-    }
-    const auto converged = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), converged_);
-    saved.converged.assign(converged.data(), converged.data() + converged.size());
+    saved.flags = download_ints(flags_);
+    saved.failures = download_ints(failures_);
+    saved.fallbacks = download_ints(fallbacks_);
+    saved.regularized = download_ints(regularized_);
+    saved.converged = download_ints(converged_);
     saved.outcomes = outcomes_;
     return saved;
   }
@@ -281,6 +279,12 @@ class BatchStepper final : public BatchStepperBase {
   }
 
  private:
+  template <class View>
+  static std::vector<int> download_ints(const View& view) {
+    const auto host = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), view);
+    return std::vector<int>(host.data(), host.data() + host.size());
+  }
+
   static std::vector<double> output_times(const Scene& scene) {
     std::vector<double> times{0.0};
     for (int frame = 1; frame <= scene.num_outputs; ++frame) times.push_back(scene.end_time * frame / scene.num_outputs);
