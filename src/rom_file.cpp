@@ -1,5 +1,6 @@
 #include "rom_file.hpp"
 
+#include <algorithm>
 #include <cstring>
 #include <filesystem>
 
@@ -22,11 +23,14 @@ hdf5::Dataset write_dataset(hdf5::Group& group, const std::string& name, hdf5::E
   return dataset;
 }
 
-// Views /xdmf/<array>/<rollout>/<frame> of the decoded fields and the side file's blocks, one per rollout, named by
-// its parameter values.
+// Views /xdmf/<array>/<rollout>/<frame> of the decoded fields and the side file's blocks, one per rollout (the first
+// max_xdmf_rollouts: three views per rollout and frame would swamp the file, and ParaView, for large batches), named
+// by its parameter values.
+constexpr std::size_t max_xdmf_rollouts = 64;
+
 std::vector<impl::XdmfBlock> write_decoded_views(hdf5::File& file, const RomResult& res, std::size_t num_points,
                                                  const std::vector<const hdf5::Dataset*>& sources) {
-  const std::size_t B = res.cases.size(), frames = res.times.size();
+  const std::size_t B = std::min(res.cases.size(), max_xdmf_rollouts), frames = res.times.size();
   hdf5::Group xdmf = file.create_group("xdmf");
   impl::write_xdmf_vertices(xdmf, num_points);
   for (const hdf5::Dataset* source : sources) {
