@@ -794,7 +794,8 @@ std::string batch_identity(const Model& model, const std::string& scene_path, co
                            const std::vector<RolloutCase>& cases, const RomSettings& settings) {
   std::uint64_t hash = 1469598103934665603ULL;
   const auto add = [&](const void* data, std::size_t bytes) {
-    for (std::size_t i = 0; i < bytes; ++i) hash = (hash ^ static_cast<const unsigned char*>(data)[i]) * 1099511628211ULL;
+    const auto* byte = static_cast<const unsigned char*>(data);
+    for (std::size_t i = 0; i < bytes; ++i) hash = (hash ^ byte[i]) * 1099511628211ULL;
   };
   add(model.weights.data(), model.weights.size() * sizeof(double));
   std::ifstream scene(scene_path, std::ios::binary);
@@ -865,7 +866,8 @@ std::unique_ptr<impl::BatchStepperBase> impl::create_stepper(const Model& model,
   nn::dispatch_max_width(model.layout().widest, [&](auto width) {
     using Manifold = rom::MlpManifold<decltype(width)::value, MemorySpace>;
     stepper = std::make_unique<impl::BatchStepper<Manifold>>(
-        Manifold{impl::device_mlp(model, params)}, model.latent_dim, impl::ReferencePoints{model.X, model.mass, model.volume},
+        Manifold{impl::device_mlp(model, params)}, model.latent_dim,
+        impl::ReferencePoints{model.X, model.mass, model.volume},
         first, loads, xhat0, xhatdot0, settings, max_latent_speed, reduction);
   });
   return stepper;

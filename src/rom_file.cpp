@@ -93,7 +93,8 @@ void save_rom(const std::string& path, const RomFile& rom) {
     impl::require_finite(path, "decoded v", rom.decoded_v.data(), {rom.decoded_v.size()});
     impl::require_finite(path, "decoded F", rom.decoded_F.data(), {rom.decoded_F.size()});
   }
-  if (n > 0 && xdmf_path_for(path) == path) bad(path, "a ROM file cannot have the extension .xmf of its XDMF side file");
+  if (n > 0 && xdmf_path_for(path) == path)
+    bad(path, "a ROM file cannot have the extension .xmf of its XDMF side file");
   AtomicFile out(path);
   std::vector<impl::XdmfBlock> blocks;
   {
@@ -184,8 +185,9 @@ void save_rom(const std::string& path, const RomFile& rom) {
   }
   // Decoded fields get an XDMF side file (ParaView opens the batch as a time series, a block per rollout); it goes
   // first, so that a ROM file under its final name always has it.
-  write_file_atomically(xdmf_path_for(path), impl::xdmf_text(std::filesystem::path(path).filename().string(),
-                                                             rom.scene_name + " (reduced model)", n, res.times, blocks));
+  const std::string h5_name = std::filesystem::path(path).filename().string();
+  write_file_atomically(xdmf_path_for(path),
+                        impl::xdmf_text(h5_name, rom.scene_name + " (reduced model)", n, res.times, blocks));
   out.commit();
 }
 

@@ -73,7 +73,8 @@ TEST_F(RolloutBatchApi, SteppingFrameByFrameReproducesTheBatchDriver) {
     const auto xhat = batch.latent_state(), xhatdot = batch.latent_rate();
     for (std::size_t b = 0; b < 3; ++b)
       for (std::size_t q = 0; q < r; ++q) {
-        ASSERT_EQ(xhat[b * r + q], reference.xhat[(b * frames + frame) * r + q]) << "frame " << frame << " rollout " << b;
+        ASSERT_EQ(xhat[b * r + q], reference.xhat[(b * frames + frame) * r + q])
+            << "frame " << frame << " rollout " << b;
         ASSERT_EQ(xhatdot[b * r + q], reference.xhatdot[(b * frames + frame) * r + q]);
       }
     EXPECT_EQ(batch.advance(), frame + 1 < frames);

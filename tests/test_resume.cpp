@@ -189,10 +189,9 @@ TEST_F(Resume, KilledRolloutResumesToTheUninterruptedResult) {
     for (int b = 0; b < 16; ++b) params << 0.5 + 0.0625 * b << "\n";
   }
   for (const std::string method : {"point", "node"}) {
-    const std::vector<std::string> rollout{"rollout",  model,      scene_,      "--params", (dir_ / "params.csv").string(),
-                                           "--method", method,     "--samples", "8",        "--end-time",
-                                           "1",        "--checkpoint-seconds",  "0",        "--energy-growth",
-                                           "0"};
+    const std::vector<std::string> rollout{
+        "rollout",   model, scene_, "--params",             (dir_ / "params.csv").string(), "--method", method,
+        "--samples", "8",   "--end-time", "1", "--checkpoint-seconds", "0", "--energy-growth", "0"};
     auto with = [&](std::vector<std::string> args, const std::vector<std::string>& more) {
       args.insert(args.end(), more.begin(), more.end());
       return args;

@@ -287,7 +287,8 @@ class BatchStepper final : public BatchStepperBase {
 
   static std::vector<double> output_times(const Scene& scene) {
     std::vector<double> times{0.0};
-    for (int frame = 1; frame <= scene.num_outputs; ++frame) times.push_back(scene.end_time * frame / scene.num_outputs);
+    for (int frame = 1; frame <= scene.num_outputs; ++frame)
+      times.push_back(scene.end_time * frame / scene.num_outputs);
     return times;
   }
 
