@@ -5,6 +5,14 @@
 #include "impl/rom_stepper.hpp"
 
 namespace mpmrom {
+namespace {
+
+void require_rollout(int rollout, int size) {
+  if (rollout < 0 || rollout >= size)
+    throw std::out_of_range("rollout " + std::to_string(rollout) + " of " + std::to_string(size));
+}
+
+}  // namespace
 
 RolloutBatch::RolloutBatch(const Model& model, const std::string& scene_path, const std::vector<std::string>& names,
                            const std::vector<RolloutCase>& cases, const RomSettings& settings,
@@ -52,21 +60,17 @@ std::vector<RolloutOutcome> RolloutBatch::outcomes() const {
 }
 
 bool RolloutBatch::running(int rollout) const {
-  if (rollout < 0 || rollout >= size()) throw std::out_of_range("rollout " + std::to_string(rollout) + " of " +
-                                                                std::to_string(size()));
-  return (stepper_->outcomes()[std::size_t(rollout)].flags & rom::fatal_flags) == 0;
+  require_rollout(rollout, size());
+  return (stepper_->flags(rollout) & rom::fatal_flags) == 0;
 }
 
 DecodedFields RolloutBatch::decode(int rollout, const std::vector<double>& X) const {
-  if (rollout < 0 || rollout >= size()) throw std::out_of_range("rollout " + std::to_string(rollout) + " of " +
-                                                                std::to_string(size()));
+  require_rollout(rollout, size());
   if (X.size() % 3 != 0) throw std::invalid_argument("decode: points must be (n, 3), got " + std::to_string(X.size()) +
                                                      " values");
   std::vector<double> xhat, xhatdot;
-  stepper_->latent(xhat, xhatdot);
-  const std::size_t r = std::size_t(latent_dim()), at = std::size_t(rollout) * r;
-  return mpmrom::decode(*model_, X, {xhat.begin() + at, xhat.begin() + at + r},
-                        {xhatdot.begin() + at, xhatdot.begin() + at + r});
+  stepper_->latent_of(rollout, xhat, xhatdot);
+  return mpmrom::decode(*model_, X, xhat, xhatdot);
 }
 
 ReducedModel ReducedModel::load(const std::string& model_path, const std::string& scene_path, RomSettings settings) {

@@ -76,6 +76,10 @@ class BatchStepperBase {
   virtual bool advance_frame() = 0;
   // The latent state and its rate now, (rollouts, r) row-major each.
   virtual void latent(std::vector<double>& xhat, std::vector<double>& xhatdot) const = 0;
+  // The same for one rollout (r values each): copies that rollout's row only.
+  virtual void latent_of(int rollout, std::vector<double>& xhat, std::vector<double>& xhatdot) const = 0;
+  // The rollout's detector flags as of the last output frame, kept on the host (no device copy).
+  int flags(int rollout) const { return outcomes_[std::size_t(rollout)].flags; }
   // What has happened to each rollout so far: flags, stop time and message, counters, frames completed.
   virtual std::vector<RolloutOutcome> outcomes() const = 0;
   // The batch's state now, and back to a saved one (of a batch of the same model, scene, settings and rollouts):
@@ -213,6 +217,11 @@ class BatchStepper final : public BatchStepperBase {
   void latent(std::vector<double>& xhat, std::vector<double>& xhatdot) const override {
     xhat = download(xhat_);
     xhatdot = download(xhatdot_);
+  }
+
+  void latent_of(int rollout, std::vector<double>& xhat, std::vector<double>& xhatdot) const override {
+    xhat = download(Kokkos::subview(xhat_, rollout, Kokkos::ALL));
+    xhatdot = download(Kokkos::subview(xhatdot_, rollout, Kokkos::ALL));
   }
 
   BatchState state() const override {
