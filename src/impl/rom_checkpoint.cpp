@@ -29,7 +29,10 @@ void write_vector(hdf5::Group& group, const std::string& name, const std::vector
 
 template <class T>
 std::vector<T> read_vector(const std::string& path, const hdf5::Group& group, const std::string& name) {
-  const auto values = read_checked(path, group.dataset(name), {group.dataset(name).shape().at(0)}, "");
+  const hdf5::Dataset dataset = group.dataset(name);
+  const auto shape = dataset.shape();
+  if (shape.size() != 1) bad(path, "dataset /" + name + " of the checkpoint is not a vector");
+  const auto values = read_checked(path, dataset, shape, "");
   return std::vector<T>(values.begin(), values.end());
 }
 
