@@ -18,6 +18,7 @@
 #include "rom.hpp"
 #include "rom_file.hpp"
 #include "mpmrom_config.hpp"
+#include "parallel.hpp"
 #include "runtime.hpp"
 #include "sampling.hpp"
 #include "simulate.hpp"
@@ -447,9 +448,22 @@ int main(int argc, char** argv) {
     return app.exit(e);
   }
 
+  // Under mpirun (an MPI build), sweep, train and rollout share their work among the ranks (docs/mpi.md); rank 0
+  // reports and writes the outputs, the others say nothing but errors.
+  mpmrom::parallel::Session mpi(argc, argv);
+  const auto world = mpmrom::parallel::Communicator::world();
+  // One rank's error ends them all: the others would wait for it in their next collective operation.
+  const auto fail = [&world](int status) {
+    if (world.size() > 1) world.abort(status);
+    return status;
+  };
+  if (!world.is_root()) quiet = true;
   verbosity = quiet ? Verbosity::quiet : verbose ? Verbosity::verbose : Verbosity::normal;
   try {
-    mpmrom::KokkosSession kokkos(threads, device);
+    if (world.size() > 1 && !(*sweep || *rollout || (*train && target_errors.empty())))
+      throw std::invalid_argument("under mpirun, mpmrom runs sweep, train and rollout (without --target-error); "
+                                  "run the other commands as one process");
+    mpmrom::KokkosSession kokkos(threads, device, world.local_rank());
     if (verbose) {
       const auto runtime = mpmrom::runtime_info();
       std::cerr << "mpmrom " << runtime.version << " (" << runtime.git_commit << "): " << runtime.backend << ", "
@@ -471,15 +485,17 @@ int main(int argc, char** argv) {
                       const double elapsed =
                           std::chrono::duration<double>(std::chrono::steady_clock::now() - sweep_start).count();
                       std::string left;
+                      // this process's runs left: every world.size()-th run from here
+                      const std::size_t mine_left = (num_runs - run + world.size() - 1) / world.size();
                       if (simulated > 0)
-                        left = ", " + duration_string(elapsed / double(simulated) * double(num_runs - run)) + " left";
+                        left = ", " + duration_string(elapsed / double(simulated) * double(mine_left)) + " left";
                       if (!reused) ++simulated;
                       if (!quiet)
                         std::cerr << "mpmrom sweep: run " << run + 1 << "/" << num_runs << " (" << r.file << ", "
                                   << (r.test ? "test" : "train") << (reused ? ", finished before: kept" : "") << left
                                   << ")\n";
                     },
-                    progress, sweep_resume);
+                    progress, sweep_resume, world);
     }
     const auto pipeline_log = [quiet](const std::string& text) {
       if (!quiet) std::cerr << "mpmrom: " << text << "\n";
@@ -510,7 +526,10 @@ int main(int argc, char** argv) {
       callbacks.message = [quiet](const std::string& text) {
         if (!quiet) std::cerr << "mpmrom train: " << text << "\n";
       };
-      const auto model = mpmrom::train_model(data, training, checkpoint, resume, callbacks);
+      if (!quiet && world.size() > 1)
+        std::cerr << "mpmrom train: data-parallel over " << world.size() << " processes\n";
+      const auto model = mpmrom::train_model(data, training, checkpoint, resume, callbacks, world);
+      if (!world.is_root()) return 0;
       mpmrom::save_model(model_path, model);
       std::error_code ignored;
       std::filesystem::remove(checkpoint, ignored);
@@ -555,11 +574,19 @@ int main(int argc, char** argv) {
       const auto samples = mpmrom::select_samples(model, scene, rom_settings, rom_data.empty() ? nullptr : &data);
       const auto reduction = mpmrom::build_hyper_reduction(model, scene, rom_settings, samples);
       if (!quiet)
-        std::cerr << "mpmrom rollout: " << cases.size() << " rollout(s), method " << rom_method << ", "
-                  << reduction.summary().dump() << "\n";
+        std::cerr << "mpmrom rollout: " << cases.size() << " rollout(s)"
+                  << (world.size() > 1 ? " over " + std::to_string(world.size()) + " processes" : std::string())
+                  << ", method " << rom_method << ", " << reduction.summary().dump() << "\n";
       rollout_checkpoint.path = rom_path + ".ckpt";
+      const std::string own_checkpoint =
+          mpmrom::rank_checkpoint_path(rollout_checkpoint.path, world.rank(), world.size());
+      const auto remove_checkpoint = [&own_checkpoint]() {
+        std::error_code ignored;
+        std::filesystem::remove(own_checkpoint, ignored);
+        std::filesystem::remove(own_checkpoint + ".prev", ignored);
+      };
       const auto result = mpmrom::run_rollouts(
-          model, scene_path, names, cases, rom_settings, reduction,
+          world, model, scene_path, names, cases, rom_settings, reduction,
           [quiet, rollouts = cases.size()](const mpmrom::RomProgress& p) {
             if (quiet || (!every_progress_line() && p.frame % std::max(1, p.frames / 5) != 0)) return;
             const double rate = p.seconds > 0 ? double(p.steps) * double(rollouts) / p.seconds : 0;
@@ -568,6 +595,11 @@ int main(int argc, char** argv) {
                          p.frames, p.time, p.steps, rate, duration_string(left).c_str());
           },
           rollout_checkpoint);
+      if (!world.is_root()) {  // rank 0 writes the batch; the checkpoints go once it is written
+        world.barrier();
+        remove_checkpoint();
+        return 0;
+      }
       mpmrom::RomFile file;
       file.result = result;
       file.model_path = std::filesystem::absolute(model_path).string();
@@ -608,8 +640,8 @@ int main(int argc, char** argv) {
         }
       }
       mpmrom::save_rom(rom_path, file);
-      std::error_code no_checkpoint;
-      std::filesystem::remove(rollout_checkpoint.path, no_checkpoint);
+      world.barrier();
+      remove_checkpoint();
       int failed = 0;
       for (std::size_t b = 0; b < cases.size(); ++b) {
         const auto& o = result.outcomes[b];
@@ -747,16 +779,16 @@ int main(int argc, char** argv) {
     }
   } catch (const mpmrom::SimulationFailure& e) {
     std::cerr << "mpmrom: the simulation failed (" << to_string(e.cause()) << ") at " << e.what() << "\n";
-    return 3;
+    return fail(3);
   } catch (const std::bad_alloc& e) {
     std::cerr << out_of_memory(e.what());
-    return 1;
+    return fail(1);
   } catch (const std::exception& e) {
     // Kokkos reports a failed View allocation as a runtime error of several lines.
     const std::string what = e.what();
     std::cerr << (what.rfind("Kokkos failed to allocate", 0) == 0 ? out_of_memory(what)
                                                                    : "mpmrom: error: " + what + "\n");
-    return 1;
+    return fail(1);
   }
   return 0;
 }

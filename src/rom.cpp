@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -21,6 +22,7 @@
 #include "kernels/rom/projection.hpp"
 #include "kernels/rom/sources.hpp"
 #include "kernels/rom/transfer.hpp"
+#include "parallel.hpp"
 #include "sampling.hpp"
 #include "trainer.hpp"
 
@@ -688,9 +690,55 @@ std::string impl::describe_flags(int flags) {
   return out;
 }
 
+namespace {
+
+// The checkpoint a rollout resumes from: the one at path; under MPI, the latest frame every rank saved (a rank
+// killed while the ranks wrote a new one still has the one before at path.prev). False: start from the beginning.
+bool resume_from_checkpoint(impl::BatchStepperBase& stepper, RomResult& result, const std::string& path,
+                            const std::string& identity, const parallel::Communicator& comm) {
+  impl::BatchState saved;
+  const auto frame_of = [&](const std::string& file) {
+    saved = impl::BatchState();
+    return impl::load_rollout_checkpoint(file, identity, saved, result) ? saved.frame : 0;
+  };
+  const std::string previous = path + ".prev";
+  int frame = frame_of(path);
+  if (comm.size() > 1) {
+    if (frame == 0) frame = frame_of(previous);
+    const int common = int(comm.min(frame));
+    if (frame != common && frame_of(previous) != common)
+      throw std::runtime_error(path + ": the ranks' checkpoints are of different frames (" + std::to_string(frame) +
+                               " here, " + std::to_string(common) + " on another rank)");
+    frame = common;
+  }
+  if (frame == 0) return false;
+  try {
+    stepper.restore(saved);
+  } catch (const std::exception& error) {
+    throw std::runtime_error(path + ": " + error.what());
+  }
+  return true;
+}
+
+// Under MPI the ranks write their checkpoints together; until all have the new one, each keeps its last one.
+void save_checkpoint(const impl::BatchStepperBase& stepper, const RomResult& result, const std::string& path,
+                     const std::string& identity, const parallel::Communicator& comm) {
+  std::error_code ignored;
+  const std::string previous = path + ".prev";
+  if (comm.size() > 1) std::filesystem::rename(path, previous, ignored);
+  impl::save_rollout_checkpoint(path, identity, stepper.state(), result);
+  if (comm.size() > 1) {
+    comm.barrier();
+    std::filesystem::remove(previous, ignored);
+  }
+}
+
+}  // namespace
+
 void impl::record_rollouts(BatchStepperBase& stepper, RomResult& result,
                            const std::function<void(const RomProgress&)>& progress,
-                           const RolloutCheckpoint& checkpoint, const std::string& identity) {
+                           const RolloutCheckpoint& checkpoint, const std::string& identity,
+                           const parallel::Communicator& comm) {
   const std::size_t B = std::size_t(stepper.rollouts()), frames = std::size_t(stepper.frames());
   const std::size_t r = std::size_t(stepper.latent_dim());
   result.times = stepper.times();
@@ -706,28 +754,24 @@ void impl::record_rollouts(BatchStepperBase& stepper, RomResult& result,
         result.xhatdot[(b * frames + frame) * r + q] = xhatdot[b * r + q];
       }
   };
-  BatchState saved;
-  if (!checkpoint.path.empty() && checkpoint.resume &&
-      load_rollout_checkpoint(checkpoint.path, identity, saved, result)) {
-    try {
-      stepper.restore(saved);
-    } catch (const std::exception& error) {
-      throw std::runtime_error(checkpoint.path + ": " + error.what());
-    }
-  } else {
+  if (comm.size() > 1)
+    stepper.share_time_step([&comm](double* values, std::size_t count) { comm.max(values, count); });
+  const bool checkpointing = !checkpoint.path.empty();
+  if (!(checkpointing && checkpoint.resume && resume_from_checkpoint(stepper, result, checkpoint.path, identity, comm)))
     record();
-  }
   auto last_checkpoint = Clock::now();
   while (stepper.advance_frame()) {
     record();
     if (progress)
       progress({stepper.frame(), int(frames) - 1, stepper.time(), stepper.steps(), stepper.step_seconds()});
-    if (!checkpoint.path.empty() && stepper.frame() + 1 < int(frames) &&
-        seconds_since(last_checkpoint) >= checkpoint.seconds) {
-      save_rollout_checkpoint(checkpoint.path, identity, stepper.state(), result);
+    // every rank asks, so that all checkpoint at the same frame
+    if (checkpointing && stepper.frame() + 1 < int(frames) &&
+        comm.any(seconds_since(last_checkpoint) >= checkpoint.seconds)) {
+      save_checkpoint(stepper, result, checkpoint.path, identity, comm);
       last_checkpoint = Clock::now();
     }
   }
+  stepper.share_time_step({});
   result.steps = stepper.steps();
   result.step_seconds = stepper.step_seconds();
   result.outcomes = stepper.outcomes();
@@ -889,6 +933,141 @@ RomResult run_rollouts(const Model& model, const std::string& scene_path, const 
   for (std::size_t c = 0; c < cases.size(); ++c)
     result.outcomes[c].warning = training_range_warning(model, names, cases[c].values);
   return result;
+}
+
+namespace {
+
+// A rank's share of a batch's result, as bytes for the gather to rank 0: trajectories and outcomes.
+class ShareWriter {
+ public:
+  template <class T>
+  void value(const T& v) {
+    bytes_.append(reinterpret_cast<const char*>(&v), sizeof(T));
+  }
+  void doubles(const std::vector<double>& v) {
+    value(std::uint64_t(v.size()));
+    bytes_.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(double));
+  }
+  void text(const std::string& t) {
+    value(std::uint64_t(t.size()));
+    bytes_ += t;
+  }
+  const std::string& bytes() const { return bytes_; }
+
+ private:
+  std::string bytes_;
+};
+
+class ShareReader {
+ public:
+  explicit ShareReader(const std::string& bytes) : bytes_(bytes) {}
+  template <class T>
+  T value() {
+    T v;
+    take(&v, sizeof(T));
+    return v;
+  }
+  void append_doubles(std::vector<double>& out) {
+    const auto n = std::size_t(value<std::uint64_t>());
+    const std::size_t old = out.size();
+    out.resize(old + n);
+    take(out.data() + old, n * sizeof(double));
+  }
+  std::string text() {
+    std::string t(std::size_t(value<std::uint64_t>()), '\0');
+    take(t.data(), t.size());
+    return t;
+  }
+
+ private:
+  void take(void* to, std::size_t n) {
+    if (n > bytes_.size() - at_) throw std::runtime_error("MPI: a rank's rollout results arrived incomplete");
+    std::memcpy(to, bytes_.data() + at_, n);
+    at_ += n;
+  }
+  const std::string& bytes_;
+  std::size_t at_ = 0;
+};
+
+std::string share_bytes(const RomResult& share) {
+  ShareWriter w;
+  w.doubles(share.xhat);
+  w.doubles(share.xhatdot);
+  w.value(std::uint64_t(share.outcomes.size()));
+  for (const auto& o : share.outcomes) {
+    w.value(o.flags);
+    w.value(o.frames_completed);
+    w.value(o.stopped_at);
+    w.value(o.max_condition);
+    w.value(o.regularized_steps);
+    w.value(o.inversion_failures);
+    w.value(o.inversion_fallbacks);
+    w.text(o.message);
+    w.text(o.warning);
+  }
+  return w.bytes();
+}
+
+void append_share(RomResult& whole, const std::string& bytes) {
+  ShareReader in(bytes);
+  in.append_doubles(whole.xhat);
+  in.append_doubles(whole.xhatdot);
+  const auto count = std::size_t(in.value<std::uint64_t>());
+  for (std::size_t b = 0; b < count; ++b) {
+    RolloutOutcome o;
+    o.flags = in.value<int>();
+    o.frames_completed = in.value<int>();
+    o.stopped_at = in.value<double>();
+    o.max_condition = in.value<double>();
+    o.regularized_steps = in.value<long>();
+    o.inversion_failures = in.value<long>();
+    o.inversion_fallbacks = in.value<long>();
+    o.message = in.text();
+    o.warning = in.text();
+    whole.outcomes.push_back(std::move(o));
+  }
+}
+
+}  // namespace
+
+std::string rank_checkpoint_path(const std::string& path, int rank, int size) {
+  return size > 1 ? path + ".rank" + std::to_string(rank) : path;
+}
+
+RomResult run_rollouts(const parallel::Communicator& comm, const Model& model, const std::string& scene_path,
+                       const std::vector<std::string>& names, const std::vector<RolloutCase>& cases,
+                       const RomSettings& settings, const HyperReduction& reduction,
+                       const std::function<void(const RomProgress&)>& progress,
+                       const RolloutCheckpoint& checkpoint) {
+  if (comm.size() == 1) return run_rollouts(model, scene_path, names, cases, settings, reduction, progress, checkpoint);
+  if (cases.size() < std::size_t(comm.size()))
+    throw std::runtime_error(std::to_string(cases.size()) + " rollout(s) cannot be shared by " +
+                             std::to_string(comm.size()) + " processes: run with at most one process per rollout");
+  const auto start = Clock::now();
+  const auto share = parallel::share_of(cases.size(), comm.rank(), comm.size());
+  const std::vector<RolloutCase> mine(cases.begin() + long(share.begin), cases.begin() + long(share.end));
+  RomResult result;
+  result.parameter_names = names;
+  result.cases = mine;
+  result.latent_dim = model.latent_dim;
+  const auto stepper = impl::create_stepper(model, scene_path, names, mine, settings, reduction);
+  result.setup_seconds = comm.max(seconds_since(start));
+  RolloutCheckpoint own = checkpoint;
+  own.path = checkpoint.path.empty() ? "" : rank_checkpoint_path(checkpoint.path, comm.rank(), comm.size());
+  impl::record_rollouts(*stepper, result, comm.is_root() ? progress : std::function<void(const RomProgress&)>(), own,
+                        own.path.empty() ? "" : batch_identity(model, scene_path, names, mine, settings), comm);
+  for (std::size_t c = 0; c < mine.size(); ++c)
+    result.outcomes[c].warning = training_range_warning(model, names, mine[c].values);
+  result.step_seconds = comm.max(result.step_seconds);  // the ranks step together: the slowest one's time
+  const auto parts = comm.gather(share_bytes(result));
+  if (!comm.is_root()) return result;
+  RomResult whole = result;
+  whole.cases = cases;
+  whole.xhat.clear();
+  whole.xhatdot.clear();
+  whole.outcomes.clear();
+  for (const auto& part : parts) append_share(whole, part);
+  return whole;
 }
 
 DecodedFields decode(const Model& model, const std::vector<double>& X, const std::vector<double>& codes,

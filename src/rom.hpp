@@ -16,6 +16,9 @@
 #include "training_data.hpp"
 
 namespace mpmrom {
+namespace parallel {
+class Communicator;
+}
 
 enum class RomMethod { MaterialPoint, SampleNode };  // Algorithm 1, Algorithm 2
 enum class SampleSelection { Region, Random, Greedy };
@@ -136,6 +139,18 @@ RomResult run_rollouts(const Model& model, const std::string& scene_path, const 
                        const std::vector<RolloutCase>& cases, const RomSettings& settings,
                        const HyperReduction& reduction, const std::function<void(const RomProgress&)>& progress = {},
                        const RolloutCheckpoint& checkpoint = {});
+
+// run_rollouts spread over the ranks of comm (src/parallel.hpp): each rank advances a contiguous share of the cases
+// (parallel::share_of) and the shares take one time step, so the result equals run_rollouts' on one process bit for
+// bit. Rank 0 returns the whole batch, the other ranks their own share. progress is called on rank 0. Each rank
+// checkpoints its share into checkpoint.path + ".rank<k>" (docs/mpi.md).
+RomResult run_rollouts(const parallel::Communicator& comm, const Model& model, const std::string& scene_path,
+                       const std::vector<std::string>& names, const std::vector<RolloutCase>& cases,
+                       const RomSettings& settings, const HyperReduction& reduction,
+                       const std::function<void(const RomProgress&)>& progress = {},
+                       const RolloutCheckpoint& checkpoint = {});
+// The checkpoint file of rank `rank` of `size` for a batch whose checkpoint is path.
+std::string rank_checkpoint_path(const std::string& path, int rank, int size);
 
 // Decoded fields of one rollout at points X (n, 3): x, v (frames, n, 3) and F (frames, n, 3, 3) from the latent
 // states codes and rates (frames, r).

@@ -1,5 +1,6 @@
 #include "runtime.hpp"
 
+#include <algorithm>
 #include <cstdlib>
 #include <fstream>
 
@@ -29,12 +30,21 @@ std::string device_name() {
 #endif
 }
 
+int gpu_count() {
+#if defined(KOKKOS_ENABLE_CUDA)
+  return Kokkos::Cuda::detect_device_count();
+#else
+  return 1;
+#endif
+}
+
 }  // namespace
 
-KokkosSession::KokkosSession(int threads, int device) {
+KokkosSession::KokkosSession(int threads, int device, int local_rank) {
   // Kokkos' OpenMP backend prints a warning on stdout when OMP_PROC_BIND is unset, which would corrupt --json
   // output; unset means no binding, so say so explicitly.
   setenv("OMP_PROC_BIND", "false", 0);
+  if (device < 0 && local_rank > 0 && gpu_count() > 1) device = local_rank % gpu_count();
   compat::initialize(threads, device);
 }
 KokkosSession::~KokkosSession() { Kokkos::finalize(); }

@@ -15,10 +15,11 @@ struct RuntimeInfo {
   std::string git_commit;      // commit the binary was built from
 };
 
-// Kokkos for the lifetime of this object: threads <= 0 and device < 0 leave Kokkos' defaults (OMP_NUM_THREADS, GPU 0).
+// Kokkos for the lifetime of this object: threads <= 0 leaves Kokkos' default (OMP_NUM_THREADS); device < 0 takes
+// GPU local_rank modulo the host's GPUs (the processes of one host, under MPI, share them round-robin).
 class KokkosSession {
  public:
-  explicit KokkosSession(int threads = 0, int device = -1);
+  explicit KokkosSession(int threads = 0, int device = -1, int local_rank = 0);
   ~KokkosSession();
   KokkosSession(const KokkosSession&) = delete;
   KokkosSession& operator=(const KokkosSession&) = delete;

@@ -10,6 +10,7 @@
 #include <stdexcept>
 
 #include "atomic_file.hpp"
+#include "parallel.hpp"
 #include "snapshot.hpp"
 
 namespace mpmrom {
@@ -97,25 +98,30 @@ std::vector<SweepRun> sweep_runs(const Scene& scene) {
 }
 
 void sweep(const std::string& scene_path, const std::string& out_dir, P2GStrategy strategy,
-           const SweepRunCallback& on_run, const SimulationCallback& progress, bool resume) {
+           const SweepRunCallback& on_run, const SimulationCallback& progress, bool resume,
+           const parallel::Communicator& comm) {
   const Scene scene = load_scene(scene_path);
   const auto runs = sweep_runs(scene);
   std::error_code error;
   std::filesystem::create_directories(std::filesystem::path(out_dir) / "runs", error);
   if (error) throw std::runtime_error("cannot create " + out_dir + "/runs: " + error.message());
-  if (resume) {
+  if (resume && comm.is_root()) {
     // Temporary files of the run a killed sweep was in (AtomicFile's NAME.tmp.PID): never complete, never read.
     for (const auto& entry : std::filesystem::directory_iterator(std::filesystem::path(out_dir) / "runs", error))
       if (entry.path().filename().string().find(".tmp.") != std::string::npos)
         std::filesystem::remove(entry.path(), error);
   }
-  for (std::size_t r = 0; r < runs.size(); ++r) {
+  comm.barrier();  // no rank starts a run while rank 0 still removes temporary files
+  // Runs dealt round-robin: neighbouring runs of a design often cost alike.
+  for (std::size_t r = std::size_t(comm.rank()); r < runs.size(); r += std::size_t(comm.size())) {
     const Scene run_scene = scene_for_run(scene_path, scene.design.names, runs[r].values);
     const std::string path = (std::filesystem::path(out_dir) / runs[r].file).string();
     const bool reused = resume && finished_before(path, run_scene);
     if (on_run) on_run(r, runs.size(), runs[r], reused);
     if (!reused) simulate(run_scene, path, strategy, progress);
   }
+  comm.barrier();  // every run is written before the design names it
+  if (!comm.is_root()) return;
   std::ostringstream csv;
   for (const auto& name : scene.design.names) csv << name << ",";
   csv << "split,file\n";

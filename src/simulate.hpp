@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "fom.hpp"
+#include "parallel.hpp"
 
 namespace mpmrom {
 
@@ -38,9 +39,11 @@ std::vector<SweepRun> sweep_runs(const Scene& scene);
 // `out_dir`/design.csv (header: the parameter names, split, file). `on_run` is told before each run starts, and
 // whether the run was reused. resume: a run whose snapshot is already complete and holds this run's scene is kept
 // (each snapshot appears only once its run has finished, so a killed sweep loses at most the run it was in); one of
-// another scene is an error, an unreadable one is simulated again.
+// another scene is an error, an unreadable one is simulated again. Under MPI (comm of several ranks) the runs are
+// dealt round-robin to the ranks, and rank 0 writes design.csv once every run is written.
 using SweepRunCallback = std::function<void(std::size_t run, std::size_t num_runs, const SweepRun&, bool reused)>;
 void sweep(const std::string& scene_path, const std::string& out_dir, P2GStrategy strategy,
-           const SweepRunCallback& on_run = {}, const SimulationCallback& progress = {}, bool resume = false);
+           const SweepRunCallback& on_run = {}, const SimulationCallback& progress = {}, bool resume = false,
+           const parallel::Communicator& comm = parallel::Communicator::self());
 
 }  // namespace mpmrom

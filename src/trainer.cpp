@@ -60,6 +60,28 @@ class IndexStaging {
   IndexVector::HostMirror host_;
 };
 
+// Data-parallel training: the ranks' minibatch gradients summed in place, through a host copy (the gradient is a
+// few thousand values, one MPI_Allreduce a step).
+class GradientSum {
+ public:
+  explicit GradientSum(const Vector& grad) : host_(Kokkos::create_mirror_view(grad)) {}
+  void sum(const ExecutionSpace& space, const Vector& grad, const parallel::Communicator& comm) {
+    Kokkos::deep_copy(space, host_, grad);
+    space.fence();
+    comm.sum(host_.data(), host_.size());
+    Kokkos::deep_copy(space, grad, host_);
+  }
+
+ private:
+  Vector::HostMirror host_;
+};
+
+void sum_over_ranks(const parallel::Communicator& comm, nn::LossTerms<double>& terms) {
+  double values[3] = {terms.position, terms.gradient, terms.velocity};
+  comm.sum(values, 3);
+  terms = {values[0], values[1], values[2]};
+}
+
 // The finite-difference stencil of every snapshot's code rate: central inside a run, one-sided at its ends, zero
 // for a run of one frame. Snapshots are numbered run after run, frame after frame, from `base`.
 struct RateStencil {
@@ -196,7 +218,7 @@ void TrainingSettings::validate() const {
 }
 
 Model train_model(const TrainingData& data, const TrainingSettings& settings, const std::string& checkpoint_path,
-                  bool resume, const TrainingCallbacks& callbacks) {
+                  bool resume, const TrainingCallbacks& callbacks, const parallel::Communicator& comm) {
   settings.validate();
   const auto say = [&](const std::string& text) {
     if (callbacks.message) callbacks.message(text);
@@ -231,6 +253,14 @@ Model train_model(const TrainingData& data, const TrainingSettings& settings, co
     v.insert(v.end(), runs[run].v.begin(), runs[run].v.end());
   }
   const int S = int(model.code_time.size());
+  if (S < comm.size())
+    throw std::runtime_error(std::to_string(S) + " training snapshots cannot be shared by " +
+                             std::to_string(comm.size()) + " processes");
+  // Data-parallel training: this rank's device holds the targets of its share of the snapshots (every rank holds
+  // every weight and code), works on the samples of each minibatch that fall in its share, and the ranks sum their
+  // gradients before the identical Adam steps.
+  const auto share = parallel::share_of(std::size_t(S), comm.rank(), comm.size());
+  const int first_owned = int(share.begin), num_owned = int(share.end - share.begin);
 
   // Validation points: a seeded random fraction of the material points, never trained on.
   std::vector<int> order(P);
@@ -330,9 +360,13 @@ Model train_model(const TrainingData& data, const TrainingSettings& settings, co
 
   nn::BatchSamples<T, MemorySpace> batch;
   batch.X = upload<Matrix>("mpmrom::train::X", first.X, P, 3);
-  batch.x = upload<Cube>("mpmrom::train::x", x, S, P, 3);
-  batch.F = upload<Cube>("mpmrom::train::F", F, S, P, 9);
-  batch.v = upload<Cube>("mpmrom::train::v", v, S, P, 3);
+  const auto owned_rows = [&](const std::vector<double>& all, std::size_t per_snapshot_values) {
+    return std::vector<double>(all.begin() + long(first_owned * per_snapshot_values),
+                               all.begin() + long((first_owned + num_owned) * per_snapshot_values));
+  };
+  batch.x = upload<Cube>("mpmrom::train::x", owned_rows(x, std::size_t(P) * 3), num_owned, P, 3);
+  batch.F = upload<Cube>("mpmrom::train::F", owned_rows(F, std::size_t(P) * 9), num_owned, P, 9);
+  batch.v = upload<Cube>("mpmrom::train::v", owned_rows(v, std::size_t(P) * 3), num_owned, P, 3);
   x.clear();
   F.clear();
   v.clear();
@@ -371,6 +405,7 @@ Model train_model(const TrainingData& data, const TrainingSettings& settings, co
   const int validation_group = std::max(1, 4096 / std::max(int(monitor_points.size()), 1));
   IndexStaging batch_snapshots("mpmrom::train::batch_snapshot",
                                std::size_t(std::max(settings.batch_snapshots, validation_group)));
+  IndexStaging batch_rows("mpmrom::train::batch_row", std::size_t(std::max(settings.batch_snapshots, validation_group)));
   IndexStaging batch_points("mpmrom::train::batch_point",
                             std::max(std::size_t(settings.batch_snapshots) * per_snapshot,
                                      std::size_t(validation_group) * monitor_points.size()));
@@ -379,25 +414,28 @@ Model train_model(const TrainingData& data, const TrainingSettings& settings, co
     nn::LossTerms<double> sum;
     const int count = int(monitor_points.size());
     const int group = validation_group;
-    double n = 0;
-    for (int begin = 0; begin < S; begin += group) {
-      const int snaps = std::min(group, S - begin);
-      std::vector<int> snapshot_ids(snaps), point_ids;
+    for (int begin = 0; begin < num_owned; begin += group) {
+      const int snaps = std::min(group, num_owned - begin);
+      std::vector<int> snapshot_ids(snaps), rows(snaps), point_ids;
       for (int i = 0; i < snaps; ++i) {
-        snapshot_ids[i] = begin + i;
+        rows[i] = begin + i;
+        snapshot_ids[i] = first_owned + begin + i;
         point_ids.insert(point_ids.end(), monitor_points.begin(), monitor_points.end());
       }
       batch.samples_per_snapshot = count;
+      batch.total_samples = 0;
       batch.snapshot = batch_snapshots.upload(snapshot_ids);
+      batch.row = batch_rows.upload(rows);
       batch.point = batch_points.upload(point_ids);
       const auto terms = nn::minibatch_loss(space, mlp, table, channels, weights, batch, buffers.get(snaps, count),
                                             Vector());
       accumulate(sum, terms, snaps * count);
-      n += double(snaps) * count;
     }
-    return to_report(sum, n, settings);
+    sum_over_ranks(comm, sum);
+    return to_report(sum, double(S) * count, settings);
   };
 
+  GradientSum gradient_sum(grad);
   const auto start = Clock::now();
   auto last_checkpoint = start;
   long samples_done = 0;
@@ -416,22 +454,37 @@ Model train_model(const TrainingData& data, const TrainingSettings& settings, co
     for (int k = 0; k < steps_per_epoch; ++k) {
       const int begin = k * settings.batch_snapshots;
       const int snaps = std::min(settings.batch_snapshots, S - begin);
-      std::vector<int> snapshot_ids(snapshot_order.begin() + begin, snapshot_order.begin() + begin + snaps);
-      std::vector<int> point_ids;
+      // Every rank draws the whole minibatch (the same random stream) and keeps the snapshots of its share.
+      std::vector<int> snapshot_ids, rows, point_ids;
       point_ids.reserve(std::size_t(snaps) * per_snapshot);
       for (int i = 0; i < snaps; ++i) {
+        const int snapshot = snapshot_order[std::size_t(begin + i)];
+        const bool owned = snapshot >= first_owned && snapshot < first_owned + num_owned;
+        if (owned) {
+          snapshot_ids.push_back(snapshot);
+          rows.push_back(snapshot - first_owned);
+        }
         // a fresh partial Fisher-Yates draw of distinct points for each snapshot
         for (int j = 0; j < per_snapshot; ++j) {
           const std::size_t pick = j + std::size_t(rng() % (pool.size() - j));
           std::swap(pool[j], pool[pick]);
-          point_ids.push_back(pool[j]);
+          if (owned) point_ids.push_back(pool[j]);
         }
       }
-      batch.samples_per_snapshot = per_snapshot;
-      batch.snapshot = batch_snapshots.upload(snapshot_ids);
-      batch.point = batch_points.upload(point_ids);
-      const auto terms =
-          nn::minibatch_loss(space, mlp, table, channels, weights, batch, buffers.get(snaps, per_snapshot), grad);
+      nn::LossTerms<T> terms{0, 0, 0};
+      const int owned_snaps = int(snapshot_ids.size());
+      if (owned_snaps > 0) {
+        batch.samples_per_snapshot = per_snapshot;
+        batch.total_samples = long(snaps) * per_snapshot;
+        batch.snapshot = batch_snapshots.upload(snapshot_ids);
+        batch.row = batch_rows.upload(rows);
+        batch.point = batch_points.upload(point_ids);
+        terms = nn::minibatch_loss(space, mlp, table, channels, weights, batch, buffers.get(owned_snaps, per_snapshot),
+                                   grad);
+      } else {
+        Kokkos::deep_copy(space, grad, T(0));
+      }
+      if (comm.size() > 1) gradient_sum.sum(space, grad, comm);
       ++step;
       const double progress = total_steps > 1 ? double(step - 1) / double(total_steps - 1) : 0.0;
       lr = settings.learning_rate * std::pow(settings.final_learning_rate / settings.learning_rate, progress);
@@ -441,6 +494,7 @@ Model train_model(const TrainingData& data, const TrainingSettings& settings, co
       epoch_samples += double(snaps) * per_snapshot;
     }
     space.fence();
+    sum_over_ranks(comm, epoch_sum);
     samples_done += long(epoch_samples);
     TrainingProgress progress;
     progress.epoch = epoch + 1;
@@ -461,17 +515,22 @@ Model train_model(const TrainingData& data, const TrainingSettings& settings, co
     if (callbacks.progress) callbacks.progress(progress);
     final = progress;
 
-    if (!checkpoint_path.empty() && !last && seconds_since(last_checkpoint) >= settings.checkpoint_seconds) {
-      snapshot_state();
-      OptimizerState state = optimizer;
-      state.step = step;
-      state.epoch = epoch + 1;
-      save_model(checkpoint_path, model, &state);
+    // every rank asks (the ranks hold identical parameters; rank 0 writes)
+    if (!checkpoint_path.empty() && !last &&
+        comm.any(seconds_since(last_checkpoint) >= settings.checkpoint_seconds)) {
+      if (comm.is_root()) {
+        snapshot_state();
+        OptimizerState state = optimizer;
+        state.step = step;
+        state.epoch = epoch + 1;
+        save_model(checkpoint_path, model, &state);
+        say("checkpoint after epoch " + std::to_string(epoch + 1) + " in " + checkpoint_path);
+      }
       last_checkpoint = Clock::now();
-      say("checkpoint after epoch " + std::to_string(epoch + 1) + " in " + checkpoint_path);
     }
   }
   snapshot_state();
+  if (!comm.is_root()) return model;  // rank 0 evaluates and writes the model
 
   // Errors: every training snapshot with its own code (all points, and the validation points alone), and the
   // test runs with projected codes.
@@ -738,6 +797,7 @@ NnBenchmark bench_nn(const NnBenchmarkSettings& settings) {
   }
   batch.point = sample_points;
   batch.snapshot = batch_snapshots;
+  batch.row = batch_snapshots;
   nn::CodeTable<T, MemorySpace> table;
   table.code_offset = layout.num_params;
   table.latent_dim = r;

@@ -13,6 +13,7 @@
 
 #include "metrics.hpp"
 #include "model.hpp"
+#include "parallel.hpp"
 #include "training_data.hpp"
 
 namespace mpmrom {
@@ -63,8 +64,13 @@ struct TrainingCallbacks {
 // validation points alone) and, if data.test is not empty, on the test runs with codes fitted by projection. If
 // checkpoint_path is not empty, the state is saved there every settings.checkpoint_seconds; with resume, training
 // continues from that checkpoint (which must come from the same settings and data).
+// Under MPI (comm of several ranks; docs/mpi.md) the training is data-parallel: each rank holds a share of the
+// snapshots' targets on its device and the ranks sum their minibatch gradients, so the result matches one process's
+// within round-off; rank 0 writes the checkpoints and alone evaluates the errors (the other ranks return the model
+// without them).
 Model train_model(const TrainingData& data, const TrainingSettings& settings, const std::string& checkpoint_path,
-                  bool resume, const TrainingCallbacks& callbacks = {});
+                  bool resume, const TrainingCallbacks& callbacks = {},
+                  const parallel::Communicator& comm = parallel::Communicator::self());
 
 // Latent codes (frames, r) that best reproduce each frame's positions: Levenberg-Marquardt on the sum of squared
 // position misfits over all points, started from the closest training code.

@@ -213,16 +213,17 @@ struct LossResult {
   std::vector<double> grad;
 };
 
-// Loss (7) of the problem's minibatch with the given parameters, and its gradient when asked for.
+// Loss (7) of the problem's minibatch with the given parameters, and its gradient when asked for. part: the batch
+// snapshots (positions in problem.snapshot) one rank of a data-parallel run would hold, with only their targets on
+// the device; its loss is its share of the whole minibatch's mean (empty: the whole minibatch).
 template <class ExecutionSpace, class T>
 LossResult<ExecutionSpace, T> evaluate_loss(const LossProblem& problem, const std::vector<double>& params,
-                                            bool with_gradient) {
+                                            bool with_gradient, const std::vector<int>& part = {}) {
   using Mem = typename ExecutionSpace::memory_space;
   HostNetwork net = problem.net;
   net.params = params;
   auto d = to_device<T, Mem>(net);
   const auto channels = nn::Channels::make(problem.weights.lambda_gradient > 0, problem.weights.lambda_velocity > 0);
-  const int num_samples = int(problem.point.size());
 
   auto ints = [](const std::vector<int>& values) {
     Kokkos::View<int*, Mem> view("ints", values.size());
@@ -240,12 +241,36 @@ LossResult<ExecutionSpace, T> evaluate_loss(const LossProblem& problem, const st
   };
   nn::BatchSamples<T, Mem> batch;
   batch.samples_per_snapshot = problem.per_snapshot;
-  batch.point = ints(problem.point);
-  batch.snapshot = ints(problem.snapshot);
   batch.X = device_matrix<T, Mem>(problem.X, problem.P, 3);
-  batch.x = cube(problem.x, problem.S, problem.P, 3);
-  batch.F = cube(problem.F, problem.S, problem.P, 9);
-  batch.v = cube(problem.v, problem.S, problem.P, 3);
+  if (part.empty()) {
+    batch.point = ints(problem.point);
+    batch.snapshot = ints(problem.snapshot);
+    batch.row = batch.snapshot;
+    batch.x = cube(problem.x, problem.S, problem.P, 3);
+    batch.F = cube(problem.F, problem.S, problem.P, 9);
+    batch.v = cube(problem.v, problem.S, problem.P, 3);
+  } else {
+    std::vector<int> snapshots, rows, points;
+    std::vector<double> x, F, v;
+    const std::size_t P = std::size_t(problem.P), per = std::size_t(problem.per_snapshot);
+    for (const int position : part) {
+      const std::size_t s = std::size_t(problem.snapshot[std::size_t(position)]);
+      rows.push_back(int(snapshots.size()));
+      snapshots.push_back(int(s));
+      points.insert(points.end(), problem.point.begin() + long(position * per),
+                    problem.point.begin() + long((position + 1) * per));
+      x.insert(x.end(), problem.x.begin() + long(s * P * 3), problem.x.begin() + long((s + 1) * P * 3));
+      F.insert(F.end(), problem.F.begin() + long(s * P * 9), problem.F.begin() + long((s + 1) * P * 9));
+      v.insert(v.end(), problem.v.begin() + long(s * P * 3), problem.v.begin() + long((s + 1) * P * 3));
+    }
+    batch.point = ints(points);
+    batch.snapshot = ints(snapshots);
+    batch.row = ints(rows);
+    batch.x = cube(x, int(rows.size()), problem.P, 3);
+    batch.F = cube(F, int(rows.size()), problem.P, 9);
+    batch.v = cube(v, int(rows.size()), problem.P, 3);
+    batch.total_samples = long(problem.point.size());
+  }
 
   nn::CodeTable<T, Mem> table;
   table.code_offset = net.layout.num_params;
@@ -265,8 +290,9 @@ LossResult<ExecutionSpace, T> evaluate_loss(const LossProblem& problem, const st
   weights.gradient_scale = T(problem.weights.gradient_scale);
   weights.velocity_scale = T(problem.weights.velocity_scale);
 
-  nn::TrainingBuffers<T, Mem> buffers(ExecutionSpace(), net.layout, channels, num_samples,
-                                      int(problem.snapshot.size()));
+  const int batch_snapshots = int(batch.snapshot.extent(0));
+  nn::TrainingBuffers<T, Mem> buffers(ExecutionSpace(), net.layout, channels,
+                                      batch_snapshots * problem.per_snapshot, batch_snapshots);
   Kokkos::View<T*, Mem> grad("grad", with_gradient ? params.size() : 0);
   const auto terms = nn::minibatch_loss(ExecutionSpace(), d.mlp, table, channels, weights, batch, buffers, grad);
   LossResult<ExecutionSpace, T> result;
@@ -326,6 +352,24 @@ void check_gradient_is_deterministic() {
 
 template <class ExecutionSpace>
 class Mlp : public ::testing::Test {};
+// Data-parallel training: the minibatch split between two ranks (batch snapshot 0 on one, 1 and 2 on the other,
+// each with only its snapshots' targets) gives losses and gradients that sum to the whole minibatch's.
+template <class ExecutionSpace>
+void check_split_minibatch_sums_to_whole() {
+  const LossProblem problem(0.7, 0.4);
+  const auto whole = evaluate_loss<ExecutionSpace, double>(problem, problem.net.params, true);
+  const auto first = evaluate_loss<ExecutionSpace, double>(problem, problem.net.params, true, {0});
+  const auto second = evaluate_loss<ExecutionSpace, double>(problem, problem.net.params, true, {1, 2});
+  // The same 12 samples' terms summed in another order: a few eps of the summed magnitudes, which cancellation
+  // between samples can make up to ~100 times the result; 1e-12 relative is above both.
+  EXPECT_NEAR(first.loss + second.loss, whole.loss, 1e-12 * whole.loss);
+  double largest = 0;
+  for (const double g : whole.grad) largest = std::max(largest, std::abs(g));
+  ASSERT_GT(largest, 0);
+  for (std::size_t i = 0; i < whole.grad.size(); ++i)
+    EXPECT_NEAR(first.grad[i] + second.grad[i], whole.grad[i], 1e-12 * largest) << "parameter " << i;
+}
+
 TYPED_TEST_SUITE(Mlp, EnabledBackends, BackendName);
 
 TYPED_TEST(Mlp, JacobiansMatchFiniteDifferences) { check_jacobians_against_finite_differences<TypeParam>(); }
@@ -340,5 +384,6 @@ TYPED_TEST(Mlp, FullLossGradientMatchesFiniteDifferences) {
 }
 TYPED_TEST(Mlp, FloatKernelsMatchDouble) { check_float_matches_double<TypeParam>(); }
 TYPED_TEST(Mlp, GradientIsBitwiseReproducible) { check_gradient_is_deterministic<TypeParam>(); }
+TYPED_TEST(Mlp, SplitMinibatchSumsToTheWhole) { check_split_minibatch_sums_to_whole<TypeParam>(); }
 
 }  // namespace

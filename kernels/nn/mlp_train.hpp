@@ -80,7 +80,11 @@ template <class T, class MemorySpace>
 struct BatchSamples {
   int samples_per_snapshot = 1;
   Kokkos::View<const int*, MemorySpace> point;     // (samples): material point index
-  Kokkos::View<const int*, MemorySpace> snapshot;  // (batch snapshots): global snapshot index
+  Kokkos::View<const int*, MemorySpace> snapshot;  // (batch snapshots): global snapshot index (its code)
+  Kokkos::View<const int*, MemorySpace> row;       // (batch snapshots): its row in x, F and v
+  // Samples the loss averages over: 0 for this minibatch's own; under data-parallel training, the whole minibatch's
+  // over every rank, so that the ranks' gradients sum to the whole minibatch's.
+  long total_samples = 0;
   PointsView<T, MemorySpace> X;                    // (points, 3) reference positions
   Kokkos::View<const T***, Kokkos::LayoutRight, MemorySpace> x;  // (snapshots, points, 3) target positions
   Kokkos::View<const T***, Kokkos::LayoutRight, MemorySpace> F;  // (snapshots, points, 9) target F, row-major
@@ -211,7 +215,7 @@ struct LossAndOutputAdjoint {
   }
   KOKKOS_INLINE_FUNCTION void operator()(const int b, value_type sums) const {
     const bool with_adjoint = Ybar.extent(0) > 0;
-    const int p = batch.point(b), t = batch.snapshot(b / batch.samples_per_snapshot);
+    const int p = batch.point(b), t = batch.row(b / batch.samples_per_snapshot);
     for (int k = 0; k < 3; ++k) {
       const T g = batch.X(p, k) + s.output_mean[k] + s.output_scale[k] * Y(b, 0, k);
       const T res = g - batch.x(t, p, k);
@@ -240,14 +244,15 @@ struct LossAndOutputAdjoint {
 }  // namespace impl
 
 // Loss (7) from the network outputs Y (samples, channels, 3): returns the mean terms and, when Ybar is not empty,
-// writes dloss/dY into it (loss = position + lambda1 gradient + lambda2 velocity terms, averaged over samples).
+// writes dloss/dY into it (loss = position + lambda1 gradient + lambda2 velocity terms, averaged over samples; over
+// batch.total_samples when set, of which this minibatch is a part).
 template <class ExecutionSpace, class T, class MemorySpace>
 LossTerms<T> loss_and_output_adjoint(const ExecutionSpace& space, const Mlp<T, MemorySpace>& mlp,
                                      const Channels channels, const LossWeights<T> weights,
                                      const BatchSamples<T, MemorySpace>& batch, const Activations<T, MemorySpace>& Y,
                                      const Activations<T, MemorySpace>& Ybar) {
   const int num_samples = int(Y.extent(0));
-  const T inv_n = T(1) / T(num_samples);
+  const T inv_n = T(1) / T(batch.total_samples > 0 ? batch.total_samples : num_samples);
   impl::LossAndOutputAdjoint<T, MemorySpace> functor;
   functor.s = mlp.standardization;
   functor.channels = channels;

@@ -18,6 +18,7 @@
 #include "kernels/rom/projection.hpp"
 #include "kernels/rom/sources.hpp"
 #include "kernels/rom/transfer.hpp"
+#include "parallel.hpp"
 #include "rom.hpp"
 
 namespace mpmrom::impl {
@@ -86,6 +87,9 @@ class BatchStepperBase {
   // advancing from a restored state repeats bit for bit what the saved batch did next.
   virtual BatchState state() const = 0;
   virtual void restore(const BatchState& state) = 0;
+  // Under MPI, ranks holding shares of one batch advance it with one time step, as one process would: combine
+  // replaces each value by its maximum over the ranks (empty: this stepper holds the whole batch).
+  void share_time_step(std::function<void(double*, std::size_t)> combine) { share_max_ = std::move(combine); }
 
  protected:
   BatchStepperBase(int rollouts, int latent_dim, std::vector<double> times)
@@ -98,6 +102,7 @@ class BatchStepperBase {
   long steps_ = 0;
   double step_seconds_ = 0;
   std::vector<RolloutOutcome> outcomes_;  // flags, frames_completed, stopped_at and message, kept on the host
+  std::function<void(double*, std::size_t)> share_max_;
 };
 
 template <class Manifold>
@@ -196,10 +201,17 @@ class BatchStepper final : public BatchStepperBase {
     const auto start = std::chrono::steady_clock::now();
     const double target = times_[std::size_t(frame_ + 1)];
     double time = times_[std::size_t(frame_)];
-    const double dt_max = cfl_ * dx_ / (wave_speed_ + double(max_speed_));
+    double max_speed = double(max_speed_);
     // Once every rollout has stopped there is nothing left to advance: the remaining frames repeat the last state.
-    const bool all_stopped = std::all_of(outcomes_.begin(), outcomes_.end(),
-                                         [](const RolloutOutcome& o) { return (o.flags & rom::fatal_flags) != 0; });
+    bool all_stopped = std::all_of(outcomes_.begin(), outcomes_.end(),
+                                   [](const RolloutOutcome& o) { return (o.flags & rom::fatal_flags) != 0; });
+    if (share_max_) {  // the fastest sample and whether any rollout runs, over the whole batch
+      double shared[2] = {max_speed, all_stopped ? 0.0 : 1.0};
+      share_max_(shared, 2);
+      max_speed = shared[0];
+      all_stopped = shared[1] == 0;
+    }
+    const double dt_max = cfl_ * dx_ / (wave_speed_ + max_speed);
     const long substeps = all_stopped ? 0 : std::max(1L, long(std::ceil((target - time) / dt_max - 1e-9)));
     const double dt_interval = substeps > 0 ? (target - time) / double(substeps) : 0.0;
     for (long sub = 0; sub < substeps; ++sub) {
@@ -410,10 +422,13 @@ std::unique_ptr<BatchStepperBase> create_stepper(const Model& model, const std::
 // Runs the batch to its horizon, filling result's times, latent trajectories (every output frame), outcomes and
 // step timing. With a checkpoint, the batch's state and the trajectories so far are saved there (atomically) at
 // the first output frame after every checkpoint.seconds; with checkpoint.resume, a checkpoint left there by a run of
-// the same batch is read first and the run goes on from it.
+// the same batch is read first and the run goes on from it. With comm of several ranks (each stepper a share of one
+// batch), the ranks checkpoint at the same frames, each into its own path, and resume from the latest frame they
+// all saved.
 void record_rollouts(BatchStepperBase& stepper, RomResult& result,
                      const std::function<void(const RomProgress&)>& progress,
-                     const RolloutCheckpoint& checkpoint = {}, const std::string& identity = "");
+                     const RolloutCheckpoint& checkpoint = {}, const std::string& identity = "",
+                     const parallel::Communicator& comm = parallel::Communicator::self());
 
 // A rollout checkpoint (HDF5, written atomically): the batch's state and the trajectories recorded so far
 // (result.xhat, result.xhatdot up to state.frame). load_rollout_checkpoint returns false when there is no file at
