@@ -9,6 +9,7 @@ packages=(
   libeigen3-dev libhdf5-dev hdf5-tools libcli11-dev libtomlplusplus-dev nlohmann-json3-dev
   libgtest-dev libbenchmark-dev gnuplot-nox
   clang libclang-rt-dev libtrilinos-kokkos-dev
+  libopenmpi-dev openmpi-bin
 )
 if [ "${1:-}" = "--render" ]; then
   packages+=(paraview xvfb xauth python3-pil)
