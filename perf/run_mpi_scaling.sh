@@ -7,7 +7,8 @@
 # Usage: perf/run_mpi_scaling.sh BUILD_DIR MODEL SCENE [NP]
 #   MODEL: a trained model of SCENE. ROLLOUTS (default "10000 100000"): batch sizes; CONFIGS (default
 #   "point:15 node:15"); EPOCHS (default 20) of the timed training runs; TIMEOUT (default 300) seconds per run;
-#   SUFFIX tags the record's name; RESULTS (default perf/results).
+#   SWEEP_SCENE (default SCENE): the scene whose design the timed sweeps run; SUFFIX tags the record's name;
+#   RESULTS (default perf/results). Each process gets nproc / P OpenMP threads.
 set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 build=${1:?usage: run_mpi_scaling.sh BUILD_DIR MODEL SCENE [NP]}
@@ -24,20 +25,27 @@ work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 log="$work/runs.jsonl"
 : > "$log"
-on() {  # on P ARGS...: mpmrom ARGS on P processes
+on() {  # on P ARGS...: mpmrom ARGS on P processes, the host's cores shared among them
   local p=$1
   shift
-  timeout "${TIMEOUT:-300}" mpirun -np "$p" --oversubscribe --bind-to none "$mpmrom" -q "$@"
+  OMP_NUM_THREADS=$(( $(nproc) / p > 0 ? $(nproc) / p : 1 )) \
+    timeout "${TIMEOUT:-300}" mpirun -np "$p" --oversubscribe --bind-to none -x OMP_NUM_THREADS "$mpmrom" -q "$@"
 }
 seconds() { python3 -c 'import time; print(time.monotonic())'; }
 interval=$(python3 -c 'import sys, tomllib; t = tomllib.load(open(sys.argv[1], "rb"))["time"]; print(t["end_time"] / t["outputs"])' "$scene")
 
+sweep_scene=${SWEEP_SCENE:-$scene}
 for p in 1 "$np"; do
   start=$(seconds)
-  on "$p" sweep "$scene" --out "$work/sweep_$p"
-  echo "{\"kind\": \"sweep\", \"processes\": $p, \"seconds\": $(python3 -c "print($(seconds) - $start)"), \"runs\": $(($(wc -l < "$work/sweep_$p/design.csv") - 1))}" >> "$log"
-  echo "sweep on $p: done" >&2
+  on "$p" sweep "$sweep_scene" --out "$work/sweep_$p"
+  echo "{\"kind\": \"sweep\", \"scene\": \"$(basename "$sweep_scene" .toml)\", \"processes\": $p, \"seconds\": $(python3 -c "print($(seconds) - $start)"), \"runs\": $(($(wc -l < "$work/sweep_$p/design.csv") - 1))}" >> "$log"
+  echo "sweep on $p: $(tail -1 "$log")" >&2
 done
+# the training runs learn the rollout scene's sweep
+if [ "$sweep_scene" != "$scene" ]; then
+  rm -rf "$work/sweep_1" "$work/sweep_$np"
+  on "$np" sweep "$scene" --out "$work/sweep_1"
+fi
 for minibatch in "8 128" "64 1024"; do
   set -- $minibatch
   for p in 1 "$np"; do

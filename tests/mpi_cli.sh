@@ -21,10 +21,14 @@ grep -q '^\[design\]' "$work/scene.toml" || fail "the seed scene has no design"
 "${two[@]}" sweep "$work/scene.toml" --out "$work/two"
 "$mpmrom" -q sweep "$work/scene.toml" --out "$work/one"
 cmp "$work/one/design.csv" "$work/two/design.csv" || fail "design.csv differs"
+# The FOM is bitwise reproducible on host backends; a GPU's P2G atomics change the order of sums from run to run
+# (docs/reliability.md: tens of float eps of O(1) fields), so there the snapshots agree to an absolute 5e-5.
+tolerance=()
+"$mpmrom" info | grep -q "backend: *Cuda" && tolerance=(-d 5e-5)
 for run in "$work"/one/runs/*.h5; do
   name=$(basename "$run")
   for field in x v F C; do
-    h5diff -q "$run" "$work/two/runs/$name" "/$field" "/$field" || fail "$name /$field differs"
+    h5diff -q "${tolerance[@]}" "$run" "$work/two/runs/$name" "/$field" "/$field" || fail "$name /$field differs"
   done
 done
 

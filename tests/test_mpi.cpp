@@ -22,6 +22,7 @@
 #include "parallel.hpp"
 #include "pushed_block.hpp"
 #include "rom.hpp"
+#include "fom.hpp"
 #include "simulate.hpp"
 #include "snapshot.hpp"
 #include "trainer.hpp"
@@ -140,17 +141,32 @@ TEST_F(Mpi, SharedSweepEqualsOneProcess) {
   const fs::path alone = dir_ / "sweep_alone";
   sweep(scene_path(), alone.string(), default_p2g_strategy(), {}, {}, false, Communicator::self());
   EXPECT_EQ(file_text(dir_ / "sweep" / "design.csv"), file_text(alone / "design.csv"));
+  // Host backends sum P2G's per-thread grids in a fixed order: bitwise reproducible, so bitwise equal. GPUs use
+  // atomics, whose order changes from run to run even on one process (docs/reliability.md: up to 24 eps of a field's
+  // largest value over 280 steps; these runs take fewer): 100 eps there.
+  const bool reproducible = default_p2g_strategy() == P2GStrategy::ScatterView;
+  const double bound = reproducible ? 0.0 : 100 * std::numeric_limits<real_t>::epsilon();
+  const auto expect_close = [bound](const std::vector<double>& a, const std::vector<double>& b, const char* field) {
+    ASSERT_EQ(a.size(), b.size()) << field;
+    double largest = 0, difference = 0;
+    for (std::size_t i = 0; i < a.size(); ++i) {
+      largest = std::max(largest, std::abs(b[i]));
+      difference = std::max(difference, std::abs(a[i] - b[i]));
+    }
+    EXPECT_LE(difference, bound * largest) << field;
+  };
   int runs = 0;
   for (const auto& entry : fs::directory_iterator(alone / "runs")) {
     if (entry.path().extension() != ".h5") continue;
     ++runs;
+    SCOPED_TRACE(entry.path().filename().string());
     const Snapshot a = read_snapshot(entry.path().string());
     const Snapshot b = read_snapshot((dir_ / "sweep" / "runs" / entry.path().filename()).string());
-    EXPECT_EQ(a.time, b.time) << entry.path();
-    EXPECT_EQ(a.x, b.x) << entry.path();
-    EXPECT_EQ(a.v, b.v) << entry.path();
-    EXPECT_EQ(a.F, b.F) << entry.path();
-    EXPECT_EQ(a.C, b.C) << entry.path();
+    EXPECT_EQ(a.time, b.time);
+    expect_close(a.x, b.x, "x");
+    expect_close(a.v, b.v, "v");
+    expect_close(a.F, b.F, "F");
+    expect_close(a.C, b.C, "C");
   }
   EXPECT_EQ(runs, 5);
 }
