@@ -104,13 +104,19 @@ KOKKOS_INLINE_FUNCTION Mat3<T> fixed_corotated_first_piola(const ElasticMaterial
 }
 
 // tau = P F^T = 2 mu (F - R) F^T + lambda (J - 1) J I = U diag(2 mu (sigma_i - 1) sigma_i) U^T + lambda (J - 1) J I,
-// symmetric by construction.
+// symmetric by construction. With psi, also the energy density from the same SVD (as fixed_corotated_energy).
 template <class T>
-KOKKOS_INLINE_FUNCTION Mat3<T> fixed_corotated_kirchhoff(const ElasticMaterial<T>& m, const Mat3<T>& F) {
+KOKKOS_INLINE_FUNCTION Mat3<T> fixed_corotated_kirchhoff(const ElasticMaterial<T>& m, const Mat3<T>& F,
+                                                         T* psi = nullptr) {
   Mat3<T> U, V;
   Vec3<T> sigma;
   svd3(F, U, sigma, V);
   const T j = determinant(F);
+  if (psi != nullptr) {
+    T stretch = T(0);
+    for (int i = 0; i < 3; ++i) stretch += (sigma[i] - T(1)) * (sigma[i] - T(1));
+    *psi = m.mu * stretch + T(0.5) * m.lambda * (j - T(1)) * (j - T(1));
+  }
   const T volumetric = m.lambda * (j - T(1)) * j;
   Vec3<T> d;
   for (int k = 0; k < 3; ++k) d[k] = T(2) * m.mu * (sigma[k] - T(1)) * sigma[k];
@@ -154,14 +160,16 @@ KOKKOS_INLINE_FUNCTION Mat3<T> first_piola(const ElasticMaterial<T>& m, const Ma
 }
 
 // Kirchhoff stress tau = P F^T = J sigma (sigma: Cauchy stress), symmetric. MPM's grid force is
-// f_i = -sum_p V0_p tau_p grad w_ip.
+// f_i = -sum_p V0_p tau_p grad w_ip. With psi, also the energy density Psi(F) (sharing the fixed corotated model's
+// SVD, the costly part of both).
 template <class T>
-KOKKOS_INLINE_FUNCTION Mat3<T> kirchhoff_stress(const ElasticMaterial<T>& m, const Mat3<T>& F) {
+KOKKOS_INLINE_FUNCTION Mat3<T> kirchhoff_stress(const ElasticMaterial<T>& m, const Mat3<T>& F, T* psi = nullptr) {
   switch (m.model) {
     case ElasticModel::NeoHookean:
+      if (psi != nullptr) *psi = detail::neo_hookean_energy(m, F);
       return detail::neo_hookean_kirchhoff(m, F);
     case ElasticModel::FixedCorotated:
-      return detail::fixed_corotated_kirchhoff(m, F);
+      return detail::fixed_corotated_kirchhoff(m, F, psi);
   }
   detail::invalid_elastic_model();
   return Mat3<T>::zero();  // not reached where Kokkos::abort is noreturn

@@ -38,6 +38,21 @@ ParticleEnergy particle_energy(const ExecutionSpace& space, const ParticleViews<
   return energy;
 }
 
+// Kinetic + elastic energy into `energy` (a device View, so the host need not wait), the elastic part from per-point
+// values V_p Psi(F_p) computed elsewhere (P2G, which has each point's SVD at hand, on the FOM's checking steps).
+template <class ExecutionSpace, class MemorySpace>
+void particle_energy_total(const ExecutionSpace& space, const ParticleViews<MemorySpace>& particles,
+                           const Kokkos::View<double*, MemorySpace>& elastic_per_point,
+                           const Kokkos::View<double, MemorySpace>& energy) {
+  Kokkos::parallel_reduce(
+      "mpmrom::fom::energy_total", Kokkos::RangePolicy<ExecutionSpace>(space, 0, particles.size()),
+      KOKKOS_LAMBDA(const int p, double& sum) {
+        const Vec3<real_t> v = load_vec3(particles.v, p);
+        sum += 0.5 * double(particles.mass(p)) * double(dot(v, v)) + elastic_per_point(p);
+      },
+      energy);
+}
+
 // Writes the power into `power` (a device View, so the host need not wait).
 template <class ExecutionSpace, class MemorySpace>
 void external_force_power(const ExecutionSpace& space, const ParticleViews<MemorySpace>& particles,

@@ -37,20 +37,26 @@ struct P2GParticle {
   real_t dt;
   bool apic;
   Kokkos::View<int, MemorySpace> outside;  // counts particles whose stencil left the grid
+  // (particles): V_p Psi(F_p) of the state P2G reads, written when not empty (the FOM's energy-checking steps)
+  Kokkos::View<double*, MemorySpace> elastic_energy;
 
   template <class Add>
   KOKKOS_INLINE_FUNCTION void operator()(int p, const Add& add) const {
     const Vec3<real_t> x = load_vec3(particles.x, p);
     const auto s = quadratic_stencil(x, grid.origin, grid.inv_dx);
+    const bool with_energy = elastic_energy.extent(0) > 0;
     if (!grid.stencil_inside(s.base)) {
       Kokkos::atomic_add(&outside(), 1);
+      if (with_energy) elastic_energy(p) = 0;  // the step fails: it left the grid
       return;
     }
     const real_t m = particles.mass(p);
     const Vec3<real_t> momentum = m * load_vec3(particles.v, p);
     const Mat3<real_t> affine = apic ? m * load_mat3(particles.C, p) : Mat3<real_t>::zero();
     const Mat3<real_t> F = load_mat3(particles.F, p);
-    const Mat3<real_t> stress = (-dt * particles.volume(p)) * kirchhoff_stress(material, F);
+    real_t psi = 0;
+    const Mat3<real_t> stress = (-dt * particles.volume(p)) * kirchhoff_stress(material, F, with_energy ? &psi : nullptr);
+    if (with_energy) elastic_energy(p) = double(particles.volume(p)) * double(psi);
     Vec3<real_t> impulse = Vec3<real_t>::zero();  // dt * external force on this particle
     for (int k = 0; k < external.count; ++k) {
       const real_t share = dt * particles.force_share(p, k);

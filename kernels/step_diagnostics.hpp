@@ -14,6 +14,7 @@ enum StepDiagnostic : int {
   step_max_speed,    // fastest particle after G2P
   step_grid_work,    // work of gravity and boundaries on the grid
   step_force_power,  // power of the external forces
+  step_energy,       // on energy-checking steps: kinetic + elastic energy of the state the step started from
   kNumStepDiagnostics
 };
 
@@ -26,6 +27,7 @@ void collect_step_diagnostics(const ExecutionSpace& space, const Kokkos::View<in
                               const Kokkos::View<real_t, MemorySpace>& max_speed,
                               const Kokkos::View<double, MemorySpace>& grid_work,
                               const Kokkos::View<double, MemorySpace>& force_power,
+                              const Kokkos::View<double, MemorySpace>& energy,
                               const StepDiagnostics<MemorySpace>& diagnostics) {
   Kokkos::parallel_for(
       "mpmrom::fom::step_diagnostics", Kokkos::RangePolicy<ExecutionSpace>(space, 0, 1), KOKKOS_LAMBDA(const int) {
@@ -35,6 +37,7 @@ void collect_step_diagnostics(const ExecutionSpace& space, const Kokkos::View<in
         diagnostics(step_max_speed) = max_speed();
         diagnostics(step_grid_work) = grid_work();
         diagnostics(step_force_power) = force_power();
+        diagnostics(step_energy) = energy();
       });
 }
 

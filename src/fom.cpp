@@ -121,6 +121,7 @@ FomSolver::FomSolver(const Scene& scene, P2GStrategy strategy, const P2GTiling& 
       step_max_speed_("mpmrom::fom::step_max_speed"),
       step_grid_work_("mpmrom::fom::step_grid_work"),
       step_force_power_("mpmrom::fom::step_force_power"),
+      step_energy_("mpmrom::fom::step_energy"),
       step_diagnostics_("mpmrom::fom::step_diagnostics"),
       step_diagnostics_host_("mpmrom::fom::step_diagnostics_host") {
   if (tiling.team_size < 1 || tiling.particles_per_team < 1 || tiling.max_tile_nodes < 27)
@@ -233,8 +234,13 @@ void FomSolver::step(double dt) {
   const Vec3<real_t> gravity{{static_cast<real_t>(scene_.gravity[0]), static_cast<real_t>(scene_.gravity[1]),
                               static_cast<real_t>(scene_.gravity[2])}};
   const bool apic = scene_.transfer == TransferKind::APIC;
+  // A due energy check looks at the state this step starts from, whose elastic energy P2G computes on the way.
+  const bool checking = energy_check_due_;
+  const double budget = energy_budget();
+  if (checking && elastic_energy_.extent(0) != particles_.size())
+    elastic_energy_ = Kokkos::View<double*, MemorySpace>("mpmrom::fom::elastic_energy", particles_.size());
   const P2GParticle<MemorySpace> kernel{particles_, grid_,   material_, external, static_cast<real_t>(dt),
-                                        apic,       outside_};
+                                        apic,       outside_, checking ? elastic_energy_ : Kokkos::View<double*, MemorySpace>()};
 
   Kokkos::deep_copy(space, nodes_, real_t(0));
   switch (strategy_) {
@@ -242,11 +248,12 @@ void FomSolver::step(double dt) {
     case P2GStrategy::ScatterView: p2g_scatter(space, kernel, scatter_, nodes_); break;
     case P2GStrategy::Tiled: p2g_tiled(space, kernel, nodes_, tiling_); break;
   }
+  if (checking) particle_energy_total(space, particles_, elastic_energy_, step_energy_);  // before G2P moves v
   grid_update(space, nodes_, grid_, gravity, boundary, static_cast<real_t>(dt), step_grid_work_);
   g2p(space, particles_, nodes_, grid_, static_cast<real_t>(dt), apic, problems_, step_max_speed_);
   external_force_power(space, particles_, external, step_force_power_);
   collect_step_diagnostics(space, outside_, problems_, step_max_speed_, step_grid_work_, step_force_power_,
-                           step_diagnostics_);
+                           step_energy_, step_diagnostics_);
   Kokkos::deep_copy(step_diagnostics_host_, step_diagnostics_);  // the step's one wait
   const auto& diagnostics = step_diagnostics_host_;
   max_speed_ = static_cast<real_t>(diagnostics(step_max_speed));
@@ -256,6 +263,11 @@ void FomSolver::step(double dt) {
     throw SimulationFailure(cause, steps_ + 1, time_, detail);
   };
   const auto count = [&](StepDiagnostic which) { return static_cast<long>(diagnostics(which)); };
+  if (checking) {  // the state before this step, against the budget it had
+    energy_check_due_ = false;
+    last_energy_check_ = {steps_, diagnostics(step_energy)};
+    enforce_energy_budget(diagnostics(step_energy), budget, steps_, time_, 0);
+  }
   if (count(step_outside) > 0)
     fail(FomFailureCause::LeftGrid,
          std::to_string(count(step_outside)) + " material points left the grid; enlarge [grid] lo/hi");
@@ -268,9 +280,13 @@ void FomSolver::step(double dt) {
          std::to_string(count(step_inverted)) + " material points inverted (det F <= 0)" + too_long());
   // Only work put in counts: the budget must not shrink when the boundaries take energy out.
   work_in_ += std::max(0.0, grid_work + force_work);
-  // Every 16 steps, or as soon as the fastest point alone could carry more kinetic energy than the limit.
+  // Every 16 steps (checked by the next step's P2G), or at once when the fastest point alone could carry more
+  // kinetic energy than the limit.
   const double kinetic_bound = 0.5 * total_mass_ * double(max_speed_) * double(max_speed_);
-  if ((steps_ + 1) % 16 == 0 || kinetic_bound > scene_.energy_growth * energy_budget()) check_energy(steps_ + 1, dt);
+  if (kinetic_bound > scene_.energy_growth * energy_budget())
+    check_energy(steps_ + 1, dt);
+  else if ((steps_ + 1) % 16 == 0 && scene_.energy_growth > 0)
+    energy_check_due_ = true;
   time_ += dt;
   ++steps_;
 }
@@ -292,19 +308,23 @@ void FomSolver::advance_to(double target_time) {
     step(dt);
     if (substeps <= 1) time_ = target_time;
   }
-  check_energy(steps_, 0);
+  check_energy(steps_, 0);  // callers write this state: it is checked now
+  energy_check_due_ = false;
 }
 
 void FomSolver::check_energy(long step, double dt) const {
+  if (scene_.energy_growth > 0) enforce_energy_budget(energy().total(), energy_budget(), step, time_, dt);
+}
+
+void FomSolver::enforce_energy_budget(double energy, double budget, long step, double time, double dt) const {
   if (!(scene_.energy_growth > 0)) return;
   // The floor is the round-off scale: a run at rest under no load has zero energy and a zero budget.
   const double floor = 1e-12 * total_mass_ * double(wave_speed_) * double(wave_speed_);
-  const double now = energy().total();
-  if (now > scene_.energy_growth * energy_budget() + floor)
-    throw SimulationFailure(FomFailureCause::EnergyBlowUp, step, time_,
-                            "the energy " + std::to_string(now) + " J exceeds " +
+  if (energy > scene_.energy_growth * budget + floor)
+    throw SimulationFailure(FomFailureCause::EnergyBlowUp, step, time,
+                            "the energy " + std::to_string(energy) + " J exceeds " +
                                 std::to_string(scene_.energy_growth) +
-                                " times the initial energy plus the work put in (" + std::to_string(energy_budget()) +
+                                " times the initial energy plus the work put in (" + std::to_string(budget) +
                                 " J)" + (dt > 0 ? " after a step of " + std::to_string(dt) + " s" : std::string()) +
                                 "; lower [time] cfl or set max_cfl");
 }

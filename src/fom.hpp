@@ -86,6 +86,12 @@ class FomSolver {
   // external forces, gravity and moving boundaries (a stable run stays below it, up to the transfers' small errors).
   ParticleEnergy energy() const;
   double energy_budget() const { return initial_energy_ + work_in_; }
+  // The last periodic energy check: the state's step count and its energy (step -1 before the first).
+  struct EnergyCheck {
+    long step = -1;
+    double energy = 0;
+  };
+  EnergyCheck last_energy_check() const { return last_energy_check_; }
   // Steps the max_cfl safeguard shortened.
   long safeguarded_steps() const { return safeguarded_steps_; }
 
@@ -96,6 +102,7 @@ class FomSolver {
  private:
   // Throws SimulationFailure (energy blow-up) when the energy exceeds energy_growth times the budget.
   void check_energy(long step, double dt) const;
+  void enforce_energy_budget(double energy, double budget, long step, double time, double dt) const;
 
   Scene scene_;
   P2GStrategy strategy_;
@@ -111,12 +118,16 @@ class FomSolver {
   ParticleProblemCounts<MemorySpace> problems_;
   // Each step's reductions land on the device and come back in one copy, so the host waits once per step.
   Kokkos::View<real_t, MemorySpace> step_max_speed_;
-  Kokkos::View<double, MemorySpace> step_grid_work_, step_force_power_;
+  Kokkos::View<double, MemorySpace> step_grid_work_, step_force_power_, step_energy_;
+  // The periodic energy check rides on the next step's P2G, which computes each point's SVD anyway: V_p Psi(F_p).
+  bool energy_check_due_ = false;
+  Kokkos::View<double*, MemorySpace> elastic_energy_;
   StepDiagnostics<MemorySpace> step_diagnostics_;
   StepDiagnostics<Kokkos::HostSpace> step_diagnostics_host_;
   double total_mass_ = 0;
   double initial_energy_ = 0, work_in_ = 0;
   long safeguarded_steps_ = 0;
+  EnergyCheck last_energy_check_;
   double time_ = 0;
   long steps_ = 0;
   real_t max_speed_ = 0;
