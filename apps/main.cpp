@@ -24,6 +24,7 @@
 #include "simulate.hpp"
 #include "stability.hpp"
 #include "trainer.hpp"
+#include "upgrade.hpp"
 
 namespace {
 
@@ -325,6 +326,15 @@ int main(int argc, char** argv) {
   evaluate->add_option("--model", evaluate_model, "Model file (default: the one ROM.h5 names)");
   evaluate->add_flag("--json", evaluate_json, "Print the errors as one JSON object on stdout");
   evaluate->footer("Example: mpmrom evaluate rom.h5 data/poke --json");
+
+  std::vector<std::string> upgrade_files;
+  auto* upgrade = app.add_subcommand(
+      "upgrade", "Rewrite files of older mpmrom versions (variable-length strings) in the current formats, in place");
+  upgrade->add_option("files", upgrade_files, "Snapshot, model or ROM files you trust (their origin: they are read "
+                                              "with libhdf5's unchecked variable-length strings)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  upgrade->footer("Example: mpmrom upgrade data/poke/runs/*.h5 poke_model.h5");
 
   mpmrom::StabilitySettings stability_settings;
   std::string stability_selection = "greedy";
@@ -704,6 +714,19 @@ int main(int argc, char** argv) {
       pipeline_settings.command = "mpmrom";
       for (int a = 1; a < argc; ++a) pipeline_settings.command += std::string(" ") + argv[a];
       mpmrom::run_pipeline(pipeline_settings, pipeline_log);
+    }
+    if (*upgrade) {
+      int failed = 0;
+      for (const auto& file : upgrade_files) {
+        try {
+          const std::string done = mpmrom::upgrade_file(file);
+          if (!quiet) std::cerr << "mpmrom upgrade: " << done << "\n";
+        } catch (const std::exception& e) {
+          ++failed;
+          std::cerr << "mpmrom: error: " << e.what() << "\n";
+        }
+      }
+      if (failed > 0) return 1;
     }
     if (*evaluate) {
       const mpmrom::RomFile rom = mpmrom::load_rom(rom_path);

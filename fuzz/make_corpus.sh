@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Regenerates the fuzzers' seed corpus from fuzz/seed_scene.toml with a built mpmrom (default build/double):
 # corpus/scene/ gets every scene of the repository plus the seed; corpus/hdf5/ gets one file of each kind the
-# loaders read (snapshot, model, reduced-model file with and without decoded fields).
+# loaders read (snapshot, model, reduced-model file with and without decoded fields) and one of an older format.
 # Usage: fuzz/make_corpus.sh [BUILD_DIR]
 set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
@@ -18,4 +18,6 @@ cp "$here"/../scenes/*.toml "$here/seed_scene.toml" "$here/corpus/scene/"
   --decode reference
 cp "$work/sweep/runs/run_000.h5" "$here/corpus/hdf5/snapshot.h5"
 cp "$work/model.h5" "$work/rom.h5" "$work/rom_decoded.h5" "$here/corpus/hdf5/"
+# a file of an older format (variable-length string attributes), which every loader must refuse without reading them
+cp "$here/../tests/data/legacy/rom_v1.h5" "$here/corpus/hdf5/legacy_rom_v1.h5"
 ls -l "$here/corpus"/*

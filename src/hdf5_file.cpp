@@ -61,14 +61,6 @@ std::string attribute_name(const Object& object, const std::string& name) {
   return "attribute '" + name + "' of " + object.path();
 }
 
-Handle variable_string_type(const Object& object) {
-  Handle type(H5Tcopy(H5T_C_S1));
-  if (!type.is_open() || H5Tset_size(type.get(), H5T_VARIABLE) < 0 || H5Tset_cset(type.get(), H5T_CSET_UTF8) < 0) {
-    fail(object.file_name(), "make", "a string type for " + object.path());
-  }
-  return type;
-}
-
 // UTF-8 strings of `width` bytes, NUL-padded (a string of exactly `width` bytes has no terminator).
 Handle fixed_string_type(const std::string& file_name, const std::string& what, std::size_t width) {
   Handle type(H5Tcopy(H5T_C_S1));
@@ -110,12 +102,49 @@ OpenAttribute open_attribute(const Object& object, const std::string& name) {
   return open;
 }
 
-OpenAttribute open_string_attribute(const Object& object, const std::string& name) {
-  OpenAttribute open = open_attribute(object, name);
-  if (H5Tget_class(open.type.get()) != H5T_STRING || H5Tis_variable_str(open.type.get()) <= 0) {
-    refuse(object.file_name(), attribute_name(object, name), "is not a variable-length string");
+bool legacy_strings_trusted = false;
+
+// The attribute's strings. Fixed-length ones are read into a buffer bounded by the bytes the attribute stores.
+// Variable-length ones (files of mpmrom before format versions snapshot 2, model 2, ROM 3) live in the file's
+// global heap, which libhdf5 1.10 follows without checks: a damaged file can hang or crash it (found by fuzzing), so
+// they are read only inside TrustLegacyStrings.
+std::vector<std::string> read_string_attribute(const Object& object, const std::string& name) {
+  const OpenAttribute open = open_attribute(object, name);
+  const std::string what = attribute_name(object, name);
+  if (H5Tget_class(open.type.get()) != H5T_STRING) refuse(object.file_name(), what, "is not a string");
+  const std::size_t count = static_cast<std::size_t>(open.count);
+  const htri_t variable = H5Tis_variable_str(open.type.get());
+  if (variable < 0) fail(object.file_name(), "inspect", what);
+  if (variable > 0) {
+    if (!legacy_strings_trusted)
+      refuse(object.file_name(), what,
+             "is a variable-length string: the file was written by an older mpmrom; if it comes from a source you "
+             "trust, convert it with `mpmrom upgrade " + object.file_name() + "`");
+    const Handle type(H5Tcopy(open.type.get()));
+    std::vector<char*> values(count, nullptr);
+    const herr_t status = values.empty() ? 0 : H5Aread(open.attribute.get(), type.get(), values.data());
+    std::vector<std::string> result;
+    for (char* value : values) {  // freed also after a failed read, which may have converted some of them
+      result.emplace_back(value != nullptr ? value : "");
+      H5free_memory(value);
+    }
+    if (status < 0) fail(object.file_name(), "read", what);
+    return result;
   }
-  return open;
+  const std::size_t width = H5Tget_size(open.type.get());
+  if (width == 0) fail(object.file_name(), "inspect", what);
+  if (H5Aget_storage_size(open.attribute.get()) < count * width) refuse(object.file_name(), what, "is truncated");
+  // Read through the same width with NUL padding, whatever padding the file declares.
+  const Handle type = fixed_string_type(object.file_name(), what, width);
+  std::vector<char> buffer(count * width);
+  if (!buffer.empty() && H5Aread(open.attribute.get(), type.get(), buffer.data()) < 0)
+    fail(object.file_name(), "read", what);
+  std::vector<std::string> result;
+  for (std::size_t i = 0; i < count; ++i) {
+    const char* entry = buffer.data() + i * width;
+    result.emplace_back(entry, std::find(entry, entry + width, '\0'));
+  }
+  return result;
 }
 
 OpenAttribute open_scalar_attribute(const Object& object, const std::string& name, bool integer_only) {
@@ -171,18 +200,21 @@ bool Object::has_attribute(const std::string& name) const {
 }
 
 void Object::set_string_attribute(const std::string& name, const std::string& value) {
-  const Handle type = variable_string_type(*this);
+  const Handle type = fixed_string_type(file_name_, attribute_name(*this, name), std::max<std::size_t>(value.size(), 1));
   const Handle space(H5Screate(H5S_SCALAR));
-  const char* data = value.c_str();
-  write_attribute(*this, name, type.get(), space.get(), &data);
+  std::string padded = value;
+  padded.resize(std::max<std::size_t>(value.size(), 1), '\0');
+  write_attribute(*this, name, type.get(), space.get(), padded.data());
 }
 
 void Object::set_string_list_attribute(const std::string& name, const std::vector<std::string>& values) {
-  const Handle type = variable_string_type(*this);
+  std::size_t width = 1;
+  for (const auto& value : values) width = std::max(width, value.size());
+  const Handle type = fixed_string_type(file_name_, attribute_name(*this, name), width);
   const hsize_t count = values.size();
   const Handle space(H5Screate_simple(1, &count, nullptr));
-  std::vector<const char*> data;
-  for (const auto& value : values) data.push_back(value.c_str());
+  std::vector<char> data(values.size() * width, '\0');
+  for (std::size_t i = 0; i < values.size(); ++i) std::copy(values[i].begin(), values[i].end(), data.begin() + i * width);
   write_attribute(*this, name, type.get(), space.get(), data.empty() ? nullptr : data.data());
 }
 
@@ -201,28 +233,17 @@ void Object::remove_attribute(const std::string& name) {
 }
 
 std::string Object::string_attribute(const std::string& name) const {
-  const OpenAttribute open = open_string_attribute(*this, name);
-  if (open.count != 1) refuse(file_name_, attribute_name(*this, name), "is not a single string");
-  char* value = nullptr;
-  const herr_t status = H5Aread(open.attribute.get(), open.type.get(), &value);
-  std::string result = value != nullptr ? value : "";
-  H5free_memory(value);  // a failed read may still have allocated it
-  if (status < 0) fail(file_name_, "read", attribute_name(*this, name));
-  return result;
+  auto values = read_string_attribute(*this, name);
+  if (values.size() != 1) refuse(file_name_, attribute_name(*this, name), "is not a single string");
+  return std::move(values.front());
 }
 
 std::vector<std::string> Object::string_list_attribute(const std::string& name) const {
-  const OpenAttribute open = open_string_attribute(*this, name);
-  std::vector<char*> values(static_cast<std::size_t>(open.count), nullptr);
-  const herr_t status = values.empty() ? 0 : H5Aread(open.attribute.get(), open.type.get(), values.data());
-  std::vector<std::string> result;
-  for (char* value : values) {  // freed also after a failed read, which may have converted some of them
-    result.emplace_back(value != nullptr ? value : "");
-    H5free_memory(value);
-  }
-  if (status < 0) fail(file_name_, "read", attribute_name(*this, name));
-  return result;
+  return read_string_attribute(*this, name);
 }
+
+TrustLegacyStrings::TrustLegacyStrings() : previous_(legacy_strings_trusted) { legacy_strings_trusted = true; }
+TrustLegacyStrings::~TrustLegacyStrings() { legacy_strings_trusted = previous_; }
 
 double Object::double_attribute(const std::string& name) const {
   const OpenAttribute open = open_scalar_attribute(*this, name, false);

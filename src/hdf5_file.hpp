@@ -45,6 +45,20 @@ class Handle {
   std::int64_t id_ = -1;
 };
 
+// Within its lifetime, string attributes stored as variable-length strings (files of older mpmrom versions) are read;
+// outside it they are refused, since libhdf5 1.10 follows their global-heap references unchecked (a damaged file can
+// hang or crash it). For `mpmrom upgrade`, which converts a file the user trusts. Not thread-safe.
+class TrustLegacyStrings {
+ public:
+  TrustLegacyStrings();
+  ~TrustLegacyStrings();
+  TrustLegacyStrings(const TrustLegacyStrings&) = delete;
+  TrustLegacyStrings& operator=(const TrustLegacyStrings&) = delete;
+
+ private:
+  bool previous_;
+};
+
 // A file, group or dataset: an object in a file that carries attributes.
 class Object {
  public:
@@ -56,7 +70,8 @@ class Object {
   void close();
 
   bool has_attribute(const std::string& name) const;
-  // Setting an attribute replaces any attribute of that name. Strings are stored as variable-length UTF-8.
+  // Setting an attribute replaces any attribute of that name. Strings are stored as fixed-length UTF-8 (NUL-padded
+  // to the longest; variable-length ones are read only under TrustLegacyStrings).
   void set_string_attribute(const std::string& name, const std::string& value);
   void set_string_list_attribute(const std::string& name, const std::vector<std::string>& values);
   void set_double_attribute(const std::string& name, double value);

@@ -126,8 +126,9 @@ Model load_model(const std::string& path, OptimizerState* optimizer) {
   if (!file.has_attribute("format") || file.string_attribute("format") != model_format)
     bad(path, "not an mpmrom model file");
   const auto version = file.integer_attribute("format_version");
-  if (version != model_format_version)
-    bad(path, "model format version " + std::to_string(version) + " is not supported (this build reads version " +
+  // Version 1 differs in its string attributes only (variable-length), which the HDF5 layer refuses unless trusted.
+  if (version < 1 || version > model_format_version)
+    bad(path, "model format version " + std::to_string(version) + " is not supported (this build reads versions 1 to " +
                   std::to_string(model_format_version) + ")");
   if (!file.has_attribute("complete") || file.integer_attribute("complete") != 1)
     bad(path, "incomplete model file (training did not finish writing it)");

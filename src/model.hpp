@@ -15,7 +15,7 @@
 namespace mpmrom {
 
 inline constexpr const char* model_format = "mpmrom-model";
-inline constexpr int model_format_version = 1;
+inline constexpr int model_format_version = 2;  // 2: fixed-length string attributes (1: variable-length)
 
 struct Model {
   int latent_dim = 0;

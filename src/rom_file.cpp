@@ -198,7 +198,9 @@ RomFile load_rom(const std::string& path) {
   if (!file.has_attribute("format") || file.string_attribute("format") != rom_format)
     bad(path, "not an mpmrom reduced-model (ROM) file");
   const auto version = file.integer_attribute("format_version");
-  if (version != 1 && version != rom_format_version)
+  // Versions 1 and 2 store variable-length string attributes (refused by the HDF5 layer unless trusted); version 1
+  // also keeps the per-rollout strings as attributes.
+  if (version < 1 || version > rom_format_version)
     bad(path, "ROM format version " + std::to_string(version) + " is not supported (this build reads versions 1 to " +
                   std::to_string(rom_format_version) + ")");
   if (!file.has_attribute("complete") || file.integer_attribute("complete") != 1) bad(path, "incomplete ROM file");

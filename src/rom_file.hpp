@@ -15,7 +15,7 @@
 namespace mpmrom {
 
 inline constexpr const char* rom_format = "mpmrom-rom";
-inline constexpr int rom_format_version = 2;
+inline constexpr int rom_format_version = 3;  // 3: fixed-length string attributes (1, 2: variable-length)
 
 struct RomFile {
   RomResult result;

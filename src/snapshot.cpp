@@ -184,8 +184,9 @@ hdf5::File open_complete_snapshot(const std::string& path) {
   const std::string format = file.string_attribute("format");
   if (format != snapshot_format) bad(path, "not an mpmrom snapshot (format is '" + format + "')");
   const std::int64_t version = file.integer_attribute("format_version");
-  if (version != snapshot_format_version) {
-    bad(path, "snapshot format version " + std::to_string(version) + " is not supported (this build reads version " +
+  // Version 1 differs in its string attributes only (variable-length), which the HDF5 layer refuses unless trusted.
+  if (version < 1 || version > snapshot_format_version) {
+    bad(path, "snapshot format version " + std::to_string(version) + " is not supported (this build reads versions 1 to " +
                   std::to_string(snapshot_format_version) + ")");
   }
   if (!file.has_attribute("complete") || file.integer_attribute("complete") != 1) {

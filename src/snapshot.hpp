@@ -16,7 +16,7 @@
 namespace mpmrom {
 
 inline constexpr const char* snapshot_format = "mpmrom-snapshot";
-inline constexpr int snapshot_format_version = 1;
+inline constexpr int snapshot_format_version = 2;  // 2: fixed-length string attributes (1: variable-length)
 
 struct SnapshotHeader {
   std::string scene_name;

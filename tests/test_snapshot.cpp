@@ -10,8 +10,11 @@
 #include <sstream>
 
 #include "hdf5_file.hpp"
+#include "model.hpp"
+#include "mpmrom_config.hpp"
 #include "rom_file.hpp"
 #include "snapshot.hpp"
+#include "upgrade.hpp"
 
 namespace mpmrom::test {
 namespace {
@@ -270,8 +273,8 @@ TEST_F(SnapshotTest, RejectsAnHdf5FileOfAnotherKind) {
 
 TEST_F(SnapshotTest, RejectsAnotherFormatVersion) {
   write_run(path("run.h5"), synthetic_run());
-  hdf5::File::open(path("run.h5"), hdf5::File::Mode::read_write).set_integer_attribute("format_version", 2);
-  expect_rejected(path("run.h5"), "snapshot format version 2 is not supported");
+  hdf5::File::open(path("run.h5"), hdf5::File::Mode::read_write).set_integer_attribute("format_version", 3);
+  expect_rejected(path("run.h5"), "snapshot format version 3 is not supported");
 }
 
 TEST_F(SnapshotTest, RejectsAnIncompleteFile) {
@@ -355,6 +358,89 @@ TEST_F(SnapshotTest, Hdf5StringListReaderRefusesOtherTypes) {
   } catch (const std::runtime_error& error) {
     EXPECT_EQ(std::string(error.what()), path("lists.h5") + ": dataset /numbers is not a list of fixed-length strings");
   }
+}
+
+// Files of older mpmrom versions (tests/data/legacy: a snapshot and a model of format 1, ROM files of formats 1 and
+// 2, written by the double build) store their string attributes as variable-length strings, which libhdf5 1.10
+// follows into its global heap unchecked (fuzzing found hangs and crashes there). Every loader refuses them with the
+// remedy in the line; `mpmrom upgrade` converts them.
+const fs::path kLegacy = MPMROM_TEST_DATA "/legacy";
+
+template <class Load>
+void expect_refused_as_legacy(const fs::path& file, const Load& load) {
+  try {
+    load(file.string());
+    ADD_FAILURE() << file << " was read without trusting it";
+  } catch (const std::runtime_error& error) {
+    const std::string what = error.what();
+    EXPECT_NE(what.find("is a variable-length string"), std::string::npos) << what;
+    EXPECT_NE(what.find("mpmrom upgrade " + file.string()), std::string::npos) << what;
+  }
+}
+
+TEST_F(SnapshotTest, LegacyFilesWithVariableLengthStringsAreRefused) {
+  expect_refused_as_legacy(kLegacy / "snapshot_v1.h5", [](const std::string& f) { (void)read_snapshot(f); });
+  expect_refused_as_legacy(kLegacy / "model_v1.h5", [](const std::string& f) { (void)load_model(f); });
+  expect_refused_as_legacy(kLegacy / "rom_v2.h5", [](const std::string& f) { (void)load_rom(f); });
+  expect_refused_as_legacy(kLegacy / "rom_v1.h5", [](const std::string& f) { (void)load_rom(f); });
+}
+
+TEST_F(SnapshotTest, UpgradeRewritesLegacyFilesWithTheSameContents) {
+  for (const char* name : {"snapshot_v1.h5", "model_v1.h5", "rom_v2.h5", "rom_v1.h5"}) fs::copy(kLegacy / name, dir_);
+  const auto format_version = [](const std::string& f) { return hdf5::File::open(f).integer_attribute("format_version"); };
+  // The snapshot was written by a double build; a float build refuses to narrow it.
+  if (std::string(MPMROM_PRECISION_NAME) == "double") {
+    Snapshot before;
+    {
+      const hdf5::TrustLegacyStrings trust;
+      before = read_snapshot((kLegacy / "snapshot_v1.h5").string());
+    }
+    EXPECT_NE(upgrade_file(path("snapshot_v1.h5")).find("snapshot format 1 -> 2"), std::string::npos);
+    const Snapshot after = read_snapshot(path("snapshot_v1.h5"));
+    EXPECT_EQ(format_version(path("snapshot_v1.h5")), snapshot_format_version);
+    EXPECT_EQ(after.header.scene_text, before.header.scene_text);
+    EXPECT_EQ(after.header.parameters, before.header.parameters);
+    EXPECT_EQ(after.X, before.X);
+    EXPECT_EQ(after.time, before.time);
+    EXPECT_EQ(after.x, before.x);
+    EXPECT_EQ(after.v, before.v);
+    EXPECT_EQ(after.F, before.F);
+    EXPECT_EQ(after.C, before.C);
+    EXPECT_NE(upgrade_file(path("snapshot_v1.h5")).find("current already"), std::string::npos);
+  } else {
+    try {
+      upgrade_file(path("snapshot_v1.h5"));
+      ADD_FAILURE() << "a float build narrowed a double snapshot";
+    } catch (const std::runtime_error& error) {
+      EXPECT_NE(std::string(error.what()).find("upgrade it with a double build"), std::string::npos) << error.what();
+    }
+  }
+
+  Model model_before;
+  RomFile rom_before;
+  {
+    const hdf5::TrustLegacyStrings trust;
+    model_before = load_model((kLegacy / "model_v1.h5").string());
+    rom_before = load_rom((kLegacy / "rom_v2.h5").string());
+  }
+  EXPECT_NE(upgrade_file(path("model_v1.h5")).find("model format 1 -> 2"), std::string::npos);
+  const Model model_after = load_model(path("model_v1.h5"));
+  EXPECT_EQ(format_version(path("model_v1.h5")), model_format_version);
+  EXPECT_EQ(model_after.weights, model_before.weights);
+  EXPECT_EQ(model_after.codes, model_before.codes);
+  EXPECT_EQ(model_after.scene_text, model_before.scene_text);
+  EXPECT_EQ(model_after.settings, model_before.settings);
+  EXPECT_EQ(model_after.runs, model_before.runs);
+
+  for (const char* name : {"rom_v2.h5", "rom_v1.h5"}) {
+    EXPECT_NE(upgrade_file(path(name)).find("ROM file format"), std::string::npos);
+    const RomFile rom_after = load_rom(path(name));
+    EXPECT_EQ(format_version(path(name)), rom_format_version);
+    EXPECT_EQ(rom_after.result.xhat.size(), rom_before.result.xhat.size()) << name;
+    EXPECT_EQ(rom_after.settings, rom_before.settings) << name;
+    EXPECT_EQ(rom_after.result.parameter_names, rom_before.result.parameter_names) << name;
+  }
+  EXPECT_EQ(load_rom(path("rom_v2.h5")).result.xhat, rom_before.result.xhat);
 }
 
 // A batch of 20000 rollouts: the per-rollout strings (split, messages, warnings) of ROM format version 1 were

@@ -85,7 +85,8 @@ def main():
         if "hyper_reduction" not in f:
             sys.exit(f"{args.rom} has no /hyper_reduction group: re-run `mpmrom rollout` with a build that writes it")
         settings = json.loads(f.attrs["settings"])
-        scene_text = f.attrs["scene"]
+        scene_text = f.attrs["scene"]  # fixed-length strings come back as bytes (ROM format 3)
+        scene_text = scene_text.decode() if isinstance(scene_text, bytes) else scene_text
         names = [n.decode() if isinstance(n, bytes) else str(n) for n in f["parameters"].attrs["names"]]
         values = f["parameters/values"][...]
         samples = f["samples/indices"][...]
