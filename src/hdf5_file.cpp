@@ -119,7 +119,7 @@ std::vector<std::string> read_string_attribute(const Object& object, const std::
     if (!legacy_strings_trusted)
       refuse(object.file_name(), what,
              "is a variable-length string: the file was written by an older mpmrom; if it comes from a source you "
-             "trust, convert it with `mpmrom upgrade " + object.file_name() + "`");
+             "trust, convert it with 'mpmrom upgrade " + object.file_name() + "'");
     const Handle type(H5Tcopy(open.type.get()));
     std::vector<char*> values(count, nullptr);
     const herr_t status = values.empty() ? 0 : H5Aread(open.attribute.get(), type.get(), values.data());
