@@ -9,7 +9,9 @@ mpmrom=${1:-$here/../build/double}/apps/mpmrom
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 export OMP_NUM_THREADS=1
-rm -rf "$here/corpus" && mkdir -p "$here/corpus/scene" "$here/corpus/hdf5"
+# inputs the fuzzer found problems with (regression_*.h5) are kept
+find "$here/corpus" -type f ! -name 'regression_*' -delete
+mkdir -p "$here/corpus/scene" "$here/corpus/hdf5"
 cp "$here"/../scenes/*.toml "$here/seed_scene.toml" "$here/corpus/scene/"
 "$mpmrom" -q sweep "$here/seed_scene.toml" --out "$work/sweep"
 "$mpmrom" -q train "$work/sweep" --out "$work/model.h5" --latent 2 --width 8 --depth 3 --epochs 50

@@ -295,6 +295,20 @@ void Dataset::append_from(const void* entry, Element type) {
 
 std::vector<double> Dataset::read() const {
   const auto dims = dataset_dims(*this, Handle(H5Dget_space(id())));
+  // A damaged file can claim more elements than it stores (libhdf5 1.10 then reads past its own buffers, found by
+  // fuzzing) or than it could hold (this buffer would be the allocation it asks for): both refused before reading.
+  const Handle stored_type(H5Dget_type(id()));
+  const Handle file(H5Iget_file_id(id()));
+  hsize_t file_size = 0;
+  if (!stored_type.is_open() || !file.is_open() || H5Fget_filesize(file.get(), &file_size) < 0)
+    fail(file_name_, "inspect", "dataset " + path_);
+  const double required = double(product(dims)) * double(H5Tget_size(stored_type.get()));
+  if (required > double(file_size)) refuse(file_name_, "dataset " + path_, "claims more data than the file holds");
+  const Handle creation(H5Dget_create_plist(id()));
+  if (!creation.is_open()) fail(file_name_, "inspect", "dataset " + path_);
+  const bool view = H5Pget_layout(creation.get()) == H5D_VIRTUAL;  // stores nothing itself (the XDMF entry views)
+  if (!view && double(H5Dget_storage_size(id())) < required)
+    refuse(file_name_, "dataset " + path_, "is truncated or unwritten");
   std::vector<double> values(product(dims));
   if (!values.empty() && H5Dread(id(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, values.data()) < 0) {
     fail(file_name_, "read", "dataset " + path_);

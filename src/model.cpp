@@ -14,6 +14,7 @@ namespace mpmrom {
 namespace {
 
 using impl::bad;
+using impl::checked_integers;
 using impl::read_checked;
 using impl::require_finite;
 using impl::shape_string;
@@ -179,7 +180,7 @@ Model load_model(const std::string& path, OptimizerState* optimizer) {
   const std::size_t codes = code_shape[0];
   m.codes = read_checked(path, latent.dataset("values"), code_shape, "");
   const auto runs = read_checked(path, latent.dataset("run"), {codes}, "(one per code)");
-  m.code_run.assign(runs.begin(), runs.end());
+  m.code_run = checked_integers<std::int64_t>(path, "/codes/run", runs, 0);
   m.code_time = read_checked(path, latent.dataset("time"), {codes}, "(one per code)");
 
   const hdf5::Group reference = file.group("reference");

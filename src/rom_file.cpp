@@ -261,33 +261,36 @@ RomFile load_rom(const std::string& path) {
   std::vector<double> fallbacks(B, 0.0);
   if (outcome.has_child("inversion_fallbacks"))
     fallbacks = impl::read_checked(path, outcome.dataset("inversion_fallbacks"), {B}, "(one per rollout)");
+  const auto flag_bits = impl::checked_integers<int>(path, "/outcome/flags", flags, 0);
+  const auto frames_done = impl::checked_integers<int>(path, "/outcome/frames_completed", completed, 0, double(frames));
+  const auto regularized_steps = impl::checked_integers<long>(path, "/outcome/regularized_steps", regularized, 0);
+  const auto failed_inversions = impl::checked_integers<long>(path, "/outcome/inversion_failures", failures, 0);
+  const auto inversion_fallbacks = impl::checked_integers<long>(path, "/outcome/inversion_fallbacks", fallbacks, 0);
   for (std::size_t b = 0; b < B; ++b) {
     RolloutOutcome o;
-    o.flags = int(flags[b]);
-    o.frames_completed = int(completed[b]);
-    if (o.frames_completed < 0 || std::size_t(o.frames_completed) > frames)
-      bad(path, "/outcome/frames_completed of rollout " + std::to_string(b) + " is out of range");
-    o.regularized_steps = long(regularized[b]);
-    o.inversion_failures = long(failures[b]);
+    o.flags = flag_bits[b];
+    o.frames_completed = frames_done[b];
+    o.regularized_steps = regularized_steps[b];
+    o.inversion_failures = failed_inversions[b];
     o.max_condition = condition[b];
     o.stopped_at = stopped[b];
     o.message = messages[b];
     o.warning = warnings[b];
-    o.inversion_fallbacks = long(fallbacks[b]);
+    o.inversion_fallbacks = inversion_fallbacks[b];
     res.outcomes.push_back(o);
   }
   const hdf5::Group samples = file.group("samples");
   const auto sample_shape = samples.dataset("indices").shape();
   if (sample_shape.size() != 1) bad(path, "/samples/indices must be a vector");
-  for (const double s : impl::read_checked(path, samples.dataset("indices"), sample_shape, ""))
-    rom.samples.push_back(int(s));
+  rom.samples = impl::checked_integers<int>(
+      path, "/samples/indices", impl::read_checked(path, samples.dataset("indices"), sample_shape, ""), 0);
   if (file.has_child("hyper_reduction")) {  // absent in files written before it existed
     const hdf5::Group reduction = file.group("hyper_reduction");
     const auto indices = [&](const char* name) {
       const auto shape = reduction.dataset(name).shape();
       if (shape.size() != 1) bad(path, std::string("/hyper_reduction/") + name + " must be a vector");
-      const auto values = impl::read_checked(path, reduction.dataset(name), shape, "");
-      return std::vector<int>(values.begin(), values.end());
+      return impl::checked_integers<int>(path, std::string("/hyper_reduction/") + name,
+                                         impl::read_checked(path, reduction.dataset(name), shape, ""), 0);
     };
     HyperReduction& sets = rom.sets;
     sets.samples = rom.samples;

@@ -443,6 +443,42 @@ TEST_F(SnapshotTest, UpgradeRewritesLegacyFilesWithTheSameContents) {
   EXPECT_EQ(load_rom(path("rom_v2.h5")).result.xhat, rom_before.result.xhat);
 }
 
+// Found by fuzzing: a dataset that stores less than its shape needs made libhdf5 1.10 read past its own buffer.
+// Such a dataset (here one created and never written) is refused before reading.
+TEST_F(SnapshotTest, Hdf5DatasetStoringLessThanItsShapeIsRefused) {
+  auto file = hdf5::File::create(path("unwritten.h5"));
+  file.create_dataset("x", hdf5::Element::float64, {10, 3});  // 240 bytes: less than the file already holds
+  try {
+    (void)file.dataset("x").read();
+    ADD_FAILURE() << "read an unwritten dataset";
+  } catch (const std::runtime_error& error) {
+    EXPECT_EQ(std::string(error.what()), path("unwritten.h5") + ": dataset /x is truncated or unwritten");
+  }
+}
+
+// Found by fuzzing: an index of 4.3e13 in a ROM file was converted to int unchecked (undefined behaviour). Every
+// integer a loader takes from a file is checked to be a whole number in range first.
+TEST_F(SnapshotTest, RomFileWithAnIndexOutOfRangeIsRefused) {
+  fs::copy(MPMROM_TEST_DATA "/../../fuzz/corpus/hdf5/rom.h5", path("rom.h5"));
+  for (const double bad_index : {4.3e13, -1.0, 2.5}) {
+    {
+      auto file = hdf5::File::open(path("rom.h5"), hdf5::File::Mode::read_write);
+      auto samples = file.group("samples");
+      const std::size_t count = samples.dataset("indices").shape().at(0);
+      std::vector<double> indices(count, 0.0);
+      indices.back() = bad_index;
+      samples.remove("indices");
+      samples.create_dataset("indices", hdf5::Element::float64, {count}).write(indices.data());
+    }
+    try {
+      (void)load_rom(path("rom.h5"));
+      ADD_FAILURE() << "read a sample index of " << bad_index;
+    } catch (const std::runtime_error& error) {
+      EXPECT_NE(std::string(error.what()).find("/samples/indices entry"), std::string::npos) << error.what();
+    }
+  }
+}
+
 // A batch of 20000 rollouts: the per-rollout strings (split, messages, warnings) of ROM format version 1 were
 // attributes and could not be written past about 10^4 rollouts.
 TEST_F(SnapshotTest, RomFileWithManyRolloutsRoundTrips) {

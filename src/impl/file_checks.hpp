@@ -3,8 +3,10 @@
 #pragma once
 
 #include <cmath>
+#include <algorithm>
 #include <cstddef>
 #include <functional>
+#include <limits>
 #include <numeric>
 #include <sstream>
 #include <stdexcept>
@@ -64,6 +66,28 @@ void require_positive(const std::string& path, const std::string& what, const T*
       bad(path, what + " of point " + std::to_string(i) + " is not positive (" + number_string(values[i]) + ")");
     }
   }
+}
+
+// Whole numbers a file stores (read as doubles) as Integer: each must be an integer in [lo, hi] (and within 2^53,
+// where doubles hold every integer), else one line naming the dataset and the entry. Converting a double outside an
+// integer type's range is undefined behaviour: a damaged file must not get that far.
+template <class Integer>
+std::vector<Integer> checked_integers(const std::string& path, const std::string& what,
+                                      const std::vector<double>& values,
+                                      double lo = double(std::numeric_limits<Integer>::lowest()),
+                                      double hi = double(std::numeric_limits<Integer>::max())) {
+  constexpr double exact = 9007199254740992.0;  // 2^53
+  lo = std::max(lo, -exact);
+  hi = std::min(hi, exact);
+  std::vector<Integer> integers(values.size());
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    const double v = values[i];
+    if (!(v >= lo && v <= hi && v == std::floor(v)))
+      bad(path, what + " entry " + std::to_string(i) + " is not an integer in [" + number_string(lo, 17) + ", " +
+                    number_string(hi, 17) + "] (" + number_string(v) + ")");
+    integers[i] = static_cast<Integer>(v);
+  }
+  return integers;
 }
 
 // The identity every mpmrom file carries: format tag and version, precision, and the build that wrote it.

@@ -2,6 +2,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "atomic_file.hpp"
@@ -33,7 +34,10 @@ std::vector<T> read_vector(const std::string& path, const hdf5::Group& group, co
   const auto shape = dataset.shape();
   if (shape.size() != 1) bad(path, "dataset /" + name + " of the checkpoint is not a vector");
   const auto values = read_checked(path, dataset, shape, "");
-  return std::vector<T>(values.begin(), values.end());
+  if constexpr (std::is_integral_v<T>)
+    return checked_integers<T>(path, "dataset /" + name + " of the checkpoint", values);
+  else
+    return values;
 }
 
 }  // namespace
