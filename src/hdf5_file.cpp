@@ -147,11 +147,19 @@ std::vector<std::string> read_string_attribute(const Object& object, const std::
   return result;
 }
 
+// Whether a stored numeric type is a standard little-endian one (mpmrom writes float32, float64 and int64). Checked
+// before HDF5 converts anything through it: a damaged type description (bit offsets, precision) sent libhdf5 1.10's
+// conversion to a wild address (found by fuzzing).
+bool standard_number_type(hid_t type, bool integer_only) {
+  const hid_t integers[] = {H5T_STD_I64LE, H5T_STD_I32LE};
+  for (const hid_t known : integers)
+    if (H5Tequal(type, known) > 0) return true;
+  return !integer_only && (H5Tequal(type, H5T_IEEE_F64LE) > 0 || H5Tequal(type, H5T_IEEE_F32LE) > 0);
+}
+
 OpenAttribute open_scalar_attribute(const Object& object, const std::string& name, bool integer_only) {
   OpenAttribute open = open_attribute(object, name);
-  const H5T_class_t type_class = H5Tget_class(open.type.get());
-  const bool number = type_class == H5T_INTEGER || (!integer_only && type_class == H5T_FLOAT);
-  if (!number || open.count != 1) {
+  if (!standard_number_type(open.type.get(), integer_only) || open.count != 1) {
     refuse(object.file_name(), attribute_name(object, name), integer_only ? "is not an integer" : "is not a number");
   }
   return open;
@@ -302,6 +310,8 @@ std::vector<double> Dataset::read() const {
   hsize_t file_size = 0;
   if (!stored_type.is_open() || !file.is_open() || H5Fget_filesize(file.get(), &file_size) < 0)
     fail(file_name_, "inspect", "dataset " + path_);
+  if (!standard_number_type(stored_type.get(), false))
+    refuse(file_name_, "dataset " + path_, "does not hold numbers of a standard type (float32, float64, int32, int64)");
   const double required = double(product(dims)) * double(H5Tget_size(stored_type.get()));
   if (required > double(file_size)) refuse(file_name_, "dataset " + path_, "claims more data than the file holds");
   const Handle creation(H5Dget_create_plist(id()));
