@@ -18,9 +18,6 @@ std::string versions(std::int64_t from, int to) {
 
 void rewrite_snapshot(const std::string& path) {
   const Snapshot run = read_snapshot(path);
-  if (run.precision != MPMROM_PRECISION_NAME)
-    throw std::runtime_error(path + ": a " + run.precision + "-precision snapshot: upgrade it with a " +
-                             run.precision + " build of mpmrom (this one is " + MPMROM_PRECISION_NAME + ")");
   const auto values = [](const std::vector<double>& all, std::size_t begin, std::size_t count) {
     return std::vector<real_t>(all.begin() + long(begin), all.begin() + long(begin + count));
   };
@@ -48,6 +45,11 @@ std::string upgrade_file(const std::string& path) {
     format = file.string_attribute("format");
     version = file.integer_attribute("format_version");
     checkpoint = file.has_child("optimizer");
+    // Files store their fields in the precision of the build that wrote them: rewriting must not narrow them.
+    const std::string precision = file.has_attribute("precision") ? file.string_attribute("precision") : "";
+    if (!precision.empty() && precision != MPMROM_PRECISION_NAME)
+      throw std::runtime_error(path + ": a " + precision + "-precision file: upgrade it with a " + precision +
+                               " build of mpmrom (this one is " + MPMROM_PRECISION_NAME + ")");
   }
   if (format == snapshot_format) {
     if (version < snapshot_format_version) rewrite_snapshot(path);

@@ -10,7 +10,8 @@ namespace mpmrom {
 
 // Upgrades the file at path in place (snapshot, model or training checkpoint, ROM file); returns one line saying
 // what it did ("snapshot format 1 -> 2", or that it was current already). Throws std::runtime_error with one line
-// when the file is of no kind it knows, damaged, or a snapshot of the other precision than this build's.
+// when the file is of no kind it knows, damaged, or of another precision than this build's (it would be narrowed or
+// widened).
 std::string upgrade_file(const std::string& path);
 
 }  // namespace mpmrom
