@@ -55,7 +55,8 @@ struct P2GParticle {
     const Mat3<real_t> affine = apic ? m * load_mat3(particles.C, p) : Mat3<real_t>::zero();
     const Mat3<real_t> F = load_mat3(particles.F, p);
     real_t psi = 0;
-    const Mat3<real_t> stress = (-dt * particles.volume(p)) * kirchhoff_stress(material, F, with_energy ? &psi : nullptr);
+    const Mat3<real_t> tau = kirchhoff_stress(material, F, with_energy ? &psi : nullptr);
+    const Mat3<real_t> stress = (-dt * particles.volume(p)) * tau;
     if (with_energy) elastic_energy(p) = double(particles.volume(p)) * double(psi);
     Vec3<real_t> impulse = Vec3<real_t>::zero();  // dt * external force on this particle
     for (int k = 0; k < external.count; ++k) {

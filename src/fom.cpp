@@ -239,8 +239,10 @@ void FomSolver::step(double dt) {
   const double budget = energy_budget();
   if (checking && elastic_energy_.extent(0) != particles_.size())
     elastic_energy_ = Kokkos::View<double*, MemorySpace>("mpmrom::fom::elastic_energy", particles_.size());
+  using EnergyView = Kokkos::View<double*, MemorySpace>;
+  const EnergyView energy_out = checking ? elastic_energy_ : EnergyView();
   const P2GParticle<MemorySpace> kernel{particles_, grid_,   material_, external, static_cast<real_t>(dt),
-                                        apic,       outside_, checking ? elastic_energy_ : Kokkos::View<double*, MemorySpace>()};
+                                        apic,       outside_, energy_out};
 
   Kokkos::deep_copy(space, nodes_, real_t(0));
   switch (strategy_) {

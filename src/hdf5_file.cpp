@@ -231,10 +231,11 @@ bool Object::has_attribute(const std::string& name) const {
 }
 
 void Object::set_string_attribute(const std::string& name, const std::string& value) {
-  const Handle type = fixed_string_type(file_name_, attribute_name(*this, name), std::max<std::size_t>(value.size(), 1));
+  const std::size_t width = std::max<std::size_t>(value.size(), 1);  // HDF5 has no zero-width strings
+  const Handle type = fixed_string_type(file_name_, attribute_name(*this, name), width);
   const Handle space(H5Screate(H5S_SCALAR));
   std::string padded = value;
-  padded.resize(std::max<std::size_t>(value.size(), 1), '\0');
+  padded.resize(width, '\0');
   write_attribute(*this, name, type.get(), space.get(), padded.data());
 }
 
@@ -245,7 +246,8 @@ void Object::set_string_list_attribute(const std::string& name, const std::vecto
   const hsize_t count = values.size();
   const Handle space(H5Screate_simple(1, &count, nullptr));
   std::vector<char> data(values.size() * width, '\0');
-  for (std::size_t i = 0; i < values.size(); ++i) std::copy(values[i].begin(), values[i].end(), data.begin() + i * width);
+  for (std::size_t i = 0; i < values.size(); ++i)
+    std::copy(values[i].begin(), values[i].end(), data.begin() + long(i * width));
   write_attribute(*this, name, type.get(), space.get(), data.empty() ? nullptr : data.data());
 }
 

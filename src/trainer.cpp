@@ -405,7 +405,8 @@ Model train_model(const TrainingData& data, const TrainingSettings& settings, co
   const int validation_group = std::max(1, 4096 / std::max(int(monitor_points.size()), 1));
   IndexStaging batch_snapshots("mpmrom::train::batch_snapshot",
                                std::size_t(std::max(settings.batch_snapshots, validation_group)));
-  IndexStaging batch_rows("mpmrom::train::batch_row", std::size_t(std::max(settings.batch_snapshots, validation_group)));
+  IndexStaging batch_rows("mpmrom::train::batch_row",
+                          std::size_t(std::max(settings.batch_snapshots, validation_group)));
   IndexStaging batch_points("mpmrom::train::batch_point",
                             std::max(std::size_t(settings.batch_snapshots) * per_snapshot,
                                      std::size_t(validation_group) * monitor_points.size()));

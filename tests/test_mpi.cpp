@@ -234,7 +234,8 @@ TEST_F(Mpi, SharedRolloutsEqualOneProcessForBothAlgorithms) {
     settings.method = method;
     settings.samples = 8;
     settings.energy_growth = 2;
-    const auto reduction = build_hyper_reduction(model, scene, settings, select_samples(model, scene, settings, nullptr));
+    const auto samples = select_samples(model, scene, settings, nullptr);
+    const auto reduction = build_hyper_reduction(model, scene, settings, samples);
     const auto shared = run_rollouts(world, model, scene_path(), {"push"}, rollout_cases(), settings, reduction);
     if (!world.is_root()) continue;
     const auto alone = run_rollouts(model, scene_path(), {"push"}, rollout_cases(), settings, reduction);
@@ -252,7 +253,8 @@ TEST_F(Mpi, RolloutResumesFromCheckpointsOfDifferentFrames) {
   const Scene scene = load_scene(scene_path());
   RomSettings settings;
   settings.samples = 8;
-  const auto reduction = build_hyper_reduction(model, scene, settings, select_samples(model, scene, settings, nullptr));
+  const auto reduction =
+      build_hyper_reduction(model, scene, settings, select_samples(model, scene, settings, nullptr));
   RolloutCheckpoint checkpoint;
   checkpoint.path = (dir_ / "rom.h5.ckpt").string();
   checkpoint.seconds = 0;  // at every output frame but the last: frames 1, 2 and 3 of 0-4

@@ -400,7 +400,9 @@ TEST_F(SnapshotTest, UpgradeRewritesLegacyFilesWithTheSameContents) {
     }
     return;
   }
-  const auto format_version = [](const std::string& f) { return hdf5::File::open(f).integer_attribute("format_version"); };
+  const auto format_version = [](const std::string& f) {
+    return hdf5::File::open(f).integer_attribute("format_version");
+  };
   Snapshot snapshot_before;
   Model model_before;
   RomFile rom_before;
