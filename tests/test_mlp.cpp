@@ -10,6 +10,8 @@
 
 #include "backends.hpp"
 #include "kernels/nn/mlp.hpp"
+#include "kernels/nn/mlp_kinematics.hpp"
+#include "kernels/nn/mlp_team.hpp"
 #include "kernels/nn/mlp_train.hpp"
 
 namespace {
@@ -350,6 +352,125 @@ void check_gradient_is_deterministic() {
   EXPECT_EQ(a.grad, b.grad);
 }
 
+// The team evaluation of the kinematics (one point per team thread, its lanes sharing the network) against the
+// one-thread one, for networks whose widths fill the lanes unevenly, with the weights staged in scratch or read from
+// memory, threads without a point and threads not asking for dg/dxhat in a team that does.
+template <class ExecutionSpace>
+struct TeamKinematicsRun {
+  using MemorySpace = typename ExecutionSpace::memory_space;
+  using member_type = typename Kokkos::TeamPolicy<ExecutionSpace>::member_type;
+  static constexpr int outputs = 24;  // g, F, v, Fdot
+
+  nn::TeamMlp<double, MemorySpace> net;
+  Kokkos::View<const double**, Kokkos::LayoutRight, MemorySpace> X, xhat, xhatdot;  // per item
+  Kokkos::View<double**, Kokkos::LayoutRight, MemorySpace> kinematics, jacobian;  // per item
+  int threads, per_thread;
+  bool stage;
+
+  // Items asking for dg/dxhat: the even ones.
+  KOKKOS_INLINE_FUNCTION static bool wants_jacobian(long e) { return e % 2 == 0; }
+
+  KOKKOS_INLINE_FUNCTION void operator()(const member_type& member) const {
+    const long items = long(X.extent(0));
+    const long first = long(member.league_rank()) * threads, e = first + member.team_rank();
+    const bool active = e < items;
+    bool any_jacobian = false;
+    for (long f = first; f < first + threads && f < items; ++f) any_jacobian = any_jacobian || wants_jacobian(f);
+    const int shared = stage ? net.arranged.size : 0;
+    double* base = static_cast<double*>(member.team_scratch(0).get_shmem_aligned(
+        std::size_t(shared + threads * per_thread) * sizeof(double), 64));
+    const double* weights = net.values.data();
+    if (stage) {
+      const auto values = net.values;
+      Kokkos::parallel_for(Kokkos::TeamVectorRange(member, shared), [&](const int i) { base[i] = values(i); });
+      member.team_barrier();
+      weights = base;
+    }
+    double* own = base + shared + member.team_rank() * per_thread;
+    auto& kin = *reinterpret_cast<nn::PointKinematics<double>*>(own + per_thread - outputs);
+    const long i = active ? e : 0;
+    const double Xi[3] = {X(i, 0), X(i, 1), X(i, 2)};
+    nn::TeamMlpKinematics(member, net, weights, own, active, Xi, &xhat(i, 0), &xhatdot(i, 0), any_jacobian, kin,
+                          active && wants_jacobian(e) ? &jacobian(i, 0) : nullptr);
+    member.team_barrier();
+    Kokkos::parallel_for(Kokkos::ThreadVectorRange(member, active ? outputs : 0),
+                         [&](const int c) { kinematics(i, c) = reinterpret_cast<const double*>(&kin)[c]; });
+  }
+};
+
+template <class ExecutionSpace>
+void check_team_kinematics_match_serial() {
+  using MemorySpace = typename ExecutionSpace::memory_space;
+  using Run = TeamKinematicsRun<ExecutionSpace>;
+  const bool host = Kokkos::SpaceAccessibility<Kokkos::HostSpace, MemorySpace>::accessible;
+  struct Shape {
+    int latent, width, depth;
+  };
+  for (const Shape shape : {Shape{5, 16, 5}, Shape{3, 20, 3}, Shape{7, 48, 4}, Shape{2, 5, 2}}) {
+    const HostNetwork host_net = random_network(shape.latent, shape.width, shape.depth, 0, 11);
+    const nn::MlpLayout& layout = host_net.layout;
+    const int r = layout.latent_dim, items = 11;
+    std::mt19937_64 rng(5);
+    std::uniform_real_distribution<double> uniform(-1, 1);
+    std::vector<double> X(3 * items), xhat(r * items), xhatdot(r * items);
+    for (double& v : X) v = 0.3 * uniform(rng);
+    for (double& v : xhat) v = uniform(rng);
+    for (double& v : xhatdot) v = uniform(rng);
+    Kokkos::View<double*, Kokkos::HostSpace> host_params("params", host_net.params.size());
+    for (std::size_t i = 0; i < host_net.params.size(); ++i) host_params(i) = host_net.params[i];
+    nn::Mlp<double, Kokkos::HostSpace> serial{layout, host_net.standardization, host_params};
+
+    nn::TeamMlp<double, MemorySpace> net;
+    net.layout = layout;
+    net.arranged = nn::TeamMlpLayout::make(layout);
+    net.standardization = host_net.standardization;
+    const std::vector<double> arranged = nn::arrange_for_teams<double>(layout, net.arranged, host_net.params);
+    Kokkos::View<double*, MemorySpace> values("values", arranged.size());
+    Kokkos::deep_copy(values, Kokkos::View<const double*, Kokkos::HostSpace>(arranged.data(), arranged.size()));
+    net.values = values;
+    const auto matrix = [](const std::vector<double>& values, int columns) {
+      Kokkos::View<double**, Kokkos::LayoutRight, MemorySpace> view("m", values.size() / columns, columns);
+      auto mirror = Kokkos::create_mirror_view(view);
+      for (std::size_t i = 0; i < values.size(); ++i) mirror.data()[i] = values[i];
+      Kokkos::deep_copy(view, mirror);
+      return view;
+    };
+    const int lanes_max = host ? 1 : 32;
+    for (int lanes = 1; lanes <= lanes_max; lanes *= 2) {
+      for (const bool stage : {false, true}) {
+        const int threads = host ? 1 : 3;
+        if (stage && net.arranged.size * sizeof(double) > 32 * 1024) continue;  // as the ROM: weights in scratch if small
+        Run run{net, matrix(X, 3), matrix(xhat, r), matrix(xhatdot, r),
+                Kokkos::View<double**, Kokkos::LayoutRight, MemorySpace>("kinematics", items, Run::outputs),
+                Kokkos::View<double**, Kokkos::LayoutRight, MemorySpace>("jacobian", items, 3 * r), threads,
+                (net.thread_scratch_values() + Run::outputs + 7) / 8 * 8, stage};
+        const std::size_t bytes = std::size_t((stage ? net.arranged.size : 0) + threads * run.per_thread) * 8 + 64;
+        Kokkos::parallel_for(Kokkos::TeamPolicy<ExecutionSpace>((items + threads - 1) / threads, threads, lanes)
+                                 .set_scratch_size(0, Kokkos::PerTeam(bytes)),
+                             run);
+        const auto kinematics = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), run.kinematics);
+        const auto jacobian = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), run.jacobian);
+        for (int e = 0; e < items; ++e) {
+          nn::PointKinematics<double> expected;
+          std::vector<double> J(3 * r);
+          nn::SerialMlpKinematics<64>(serial, &X[3 * e], &xhat[r * e], &xhatdot[r * e], expected, J.data());
+          // The same sums in the same order; only contraction into fused multiply-adds may differ: a few eps of the
+          // summed magnitudes (inputs and weights of order one, activations of order ten at most).
+          const double tolerance = 1e-12;
+          const double* want = reinterpret_cast<const double*>(&expected);
+          for (int c = 0; c < Run::outputs; ++c)
+            EXPECT_NEAR(kinematics(e, c), want[c], tolerance)
+                << "width " << shape.width << " lanes " << lanes << " stage " << stage << " item " << e << " value " << c;
+          if (!Run::wants_jacobian(e)) continue;
+          for (int q = 0; q < 3 * r; ++q)
+            EXPECT_NEAR(jacobian(e, q), J[q], tolerance)
+                << "width " << shape.width << " lanes " << lanes << " stage " << stage << " item " << e << " entry " << q;
+        }
+      }
+    }
+  }
+}
+
 template <class ExecutionSpace>
 class Mlp : public ::testing::Test {};
 // Data-parallel training: the minibatch split between two ranks (batch snapshot 0 on one, 1 and 2 on the other,
@@ -385,5 +506,6 @@ TYPED_TEST(Mlp, FullLossGradientMatchesFiniteDifferences) {
 TYPED_TEST(Mlp, FloatKernelsMatchDouble) { check_float_matches_double<TypeParam>(); }
 TYPED_TEST(Mlp, GradientIsBitwiseReproducible) { check_gradient_is_deterministic<TypeParam>(); }
 TYPED_TEST(Mlp, SplitMinibatchSumsToTheWhole) { check_split_minibatch_sums_to_whole<TypeParam>(); }
+TYPED_TEST(Mlp, TeamKinematicsMatchSerial) { check_team_kinematics_match_serial<TypeParam>(); }
 
 }  // namespace

@@ -12,6 +12,7 @@
 #include "impl/rom_stepper.hpp"
 #include "kernels/nn/mlp_kinematics.hpp"
 #include "kernels/rom/inversion.hpp"
+#include "kernels/rom/manifold.hpp"
 #include "kernels/rom/projection.hpp"
 #include "sampling.hpp"
 
@@ -205,7 +206,7 @@ TEST(RomInversion, NewtonFindsTheReferencePositionOfKnownMaps) {
 
 // ---------------------------------------------------------------------------------------------------------------
 // Exact manifolds: affine maps g(X; xhat) = X + b + A (X - c), xhat = (b, A row-major), r = 12.
-struct AffineManifold {
+struct AffineManifold : rom::TeamFromSerial<AffineManifold> {
   real_t c[3];
   KOKKOS_INLINE_FUNCTION int latent_dim() const { return 12; }
   KOKKOS_INLINE_FUNCTION void position_and_gradient(const real_t X[3], const real_t* xhat, real_t g[3],
@@ -317,7 +318,7 @@ RomResult affine_rollouts(const Scene& scene, const Motion& run, RomMethod metho
   next.back() = -1;
   const HyperReduction reduction = impl::hyper_reduction_from_motion(scene, settings, chosen, motion, P, next);
   const impl::ReferencePoints points{run.X, run.mass, run.volume};
-  const AffineManifold manifold{{0, 0, 0}};
+  const AffineManifold manifold{{}, {0, 0, 0}};
   const std::vector<double> rate = affine_rate(scene);
   std::vector<double> xhat0, xhatdot0;
   std::vector<rom::RolloutLoads> loads;

@@ -1,5 +1,6 @@
-// ELU activation and its first two derivatives (the paper's choice: continuously differentiable, so F = dg/dX and
-// the velocity dg/dxhat * xhatdot are continuous; the second derivative is needed to train on those Jacobians).
+// ELU activation and its derivative (the paper's choice: continuously differentiable, so F = dg/dX and the velocity
+// dg/dxhat * xhatdot are continuous). Its second derivative, needed to train on those Jacobians and for the
+// second-order kinematics, is elu'' = elu' = exp(a) below zero and 0 above: callers take it from elu' (no exp).
 #pragma once
 
 #include "kernels/compat/kokkos_compat.hpp"
@@ -16,12 +17,6 @@ KOKKOS_INLINE_FUNCTION T elu(T a) {
 template <class T>
 KOKKOS_INLINE_FUNCTION T elu_derivative(T a) {
   return a > T(0) ? T(1) : T(math::exp(a));
-}
-
-// d^2 elu / da^2: 0 for a > 0, exp(a) otherwise (the jump at 0 is where ELU stops being twice differentiable).
-template <class T>
-KOKKOS_INLINE_FUNCTION T elu_second_derivative(T a) {
-  return a > T(0) ? T(0) : T(math::exp(a));
 }
 
 // elu(a) and elu'(a) from one exponential (the forward pass needs both).

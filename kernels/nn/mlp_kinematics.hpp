@@ -62,7 +62,7 @@ KOKKOS_INLINE_FUNCTION void SerialMlpKinematics(const Mlp<T, MemorySpace>& mlp, 
       }
       T value, d1;
       elu_and_derivative(a[0], value, d1);
-      const T d2 = elu_second_derivative(a[0]);
+      const T d2 = a[0] > T(0) ? T(0) : d1;  // elu'' = elu' = exp(a) below zero: no second exp
       slope[l][i] = d1;
       next[0][i] = value;
       for (int j = 0; j < 3; ++j) {

@@ -73,10 +73,11 @@ struct ProjectVelocities {
   int latent_dim;
   BatchJacobians<MemorySpace> sample_J;         // (rollouts, samples, 3, r) at xhat(t_n)
   BatchVectors<MemorySpace> sample_velocity;    // (rollouts, samples, 3) from G2P
-  BatchMatrix<MemorySpace> xhat;                    // at t_n
-  BatchMatrix<MemorySpace> xhat_next, xhatdot_next;  // written unless the rollout has stopped
+  BatchMatrix<MemorySpace> xhat, xhatdot;           // at t_n
+  BatchMatrix<MemorySpace> xhat_next, xhatdot_next;  // the new state; a rollout that has stopped keeps the old one
   ProjectionGuard guard;
   real_t dt;
+  bool first_pass;  // a rollout that stops in a later pass keeps the state of the pass before
   Kokkos::View<int*, MemorySpace> flags;
   Kokkos::View<real_t*, MemorySpace> max_condition;   // largest estimate over the rollout's steps
   Kokkos::View<int*, MemorySpace> regularized_steps;  // steps that needed regularisation
@@ -85,8 +86,18 @@ struct ProjectVelocities {
 
   KOKKOS_INLINE_FUNCTION void operator()(const member_type& team) const {
     const int b = team.league_rank();
-    if (flags(b) & fatal_flags) return;
     const int r = latent_dim;
+    const auto hold = [&]() {
+      if (!first_pass) return;
+      for (int q = 0; q < r; ++q) {
+        xhat_next(b, q) = xhat(b, q);
+        xhatdot_next(b, q) = xhatdot(b, q);
+      }
+    };
+    if (flags(b) & fatal_flags) {
+      Kokkos::single(Kokkos::PerTeam(team), hold);
+      return;
+    }
     const int rows = 3 * int(sample_J.extent(1));
     scratch_view shared(team.team_scratch(0), r * max_latent_dim + r);
     const int matrix_entries = r * (r + 1) / 2;
@@ -130,12 +141,16 @@ struct ProjectVelocities {
       if (condition > max_condition(b)) max_condition(b) = condition;
       if (raised & flag_ill_conditioned) ++regularized_steps(b);
       if (raised) flags(b) |= raised;
-      if (raised & fatal_flags) return;
+      if (raised & fatal_flags) {
+        hold();
+        return;
+      }
       if (guard.max_latent_speed > real_t(0)) {
         real_t speed2 = 0;
         for (int q = 0; q < r; ++q) speed2 += rate[q] * rate[q];
         if (speed2 > guard.max_latent_speed * guard.max_latent_speed) {
           flags(b) |= flag_energy;
+          hold();
           return;
         }
       }

@@ -4,7 +4,7 @@
 //   m_i += w m,   (m v)_i += w (p + A (x_i - x)) + S grad w,
 // the full-order P2G (kernels/p2g.hpp) with p = m v + dt m f (momentum and external impulse), A = m C (APIC, with
 // C = grad_x v = Fdot F^-1 from the manifold) and S = -dt V tau / J (V the current volume, tau the Kirchhoff stress).
-// Parallelism: one thread per (rollout, source).
+// Parallelism: per kernel below.
 #pragma once
 
 #include "kernels/constitutive.hpp"
@@ -12,6 +12,7 @@
 #include "kernels/rom/loads.hpp"
 #include "kernels/rom/manifold.hpp"
 #include "kernels/rom/reference_domain.hpp"
+#include "kernels/rom/team_shape.hpp"
 
 namespace mpmrom::rom {
 
@@ -85,10 +86,24 @@ KOKKOS_INLINE_FUNCTION void clear_source(const SourceView<MemorySpace>& sources,
   for (int c = 0; c < source_size; ++c) sources(b, k, c) = real_t(0);
 }
 
+// Whether any of the items [first, first + count) (flat (rollout, point) indices over `points` points a rollout) is
+// one of the first `samples` points of its rollout.
+KOKKOS_INLINE_FUNCTION bool any_sample(long first, int count, long total, int points, int samples) {
+  if (first >= total || samples == 0) return false;
+  const int k = int(first % points);
+  return k < samples || first + (points - k) < (first + count < total ? first + count : total);
+}
+
 // Algorithm 1, step 2: the sample and neighbour material points (sample points first: k < num_samples), each with
 // its full-order mass and reference volume. The samples' positions and dg/dxhat are kept for the projection.
-template <class Manifold, class MemorySpace>
+// Parallelism: a team per shape.items() (rollout, point) items (team_shape.hpp): each team thread runs the network
+// for shape.rounds points with its lanes, the kinematics kept in scratch, then the team's threads and lanes take
+// one point each for the stress.
+template <class Manifold, class ExecutionSpace>
 struct MaterialPointSources {
+  using MemorySpace = typename ExecutionSpace::memory_space;
+  using member_type = typename Kokkos::TeamPolicy<ExecutionSpace>::member_type;
+
   Manifold manifold;
   Kokkos::View<const real_t**, Kokkos::LayoutRight, MemorySpace> X;  // (points, 3)
   Kokkos::View<const real_t*, MemorySpace> mass, volume;
@@ -101,24 +116,51 @@ struct MaterialPointSources {
   BatchVectors<MemorySpace> sample_x;
   BatchJacobians<MemorySpace> sample_J;
   Kokkos::View<int*, MemorySpace> flags;
+  TeamShape shape;
+  TeamScratch scratch;  // the manifold's, with the items' kinematics
 
-  KOKKOS_INLINE_FUNCTION void operator()(const long e) const {
-    const int num_points = int(X.extent(0));
-    const int b = int(e / num_points), k = int(e % num_points);
-    const real_t Xk[3] = {X(k, 0), X(k, 1), X(k, 2)};
-    nn::PointKinematics<real_t> kin;
-    const bool sample = k < int(sample_x.extent(1));
-    manifold.kinematics(Xk, &xhat(b, 0), &xhatdot(b, 0), kin, sample ? &sample_J(b, k, 0, 0) : nullptr);
-    Mat3<real_t> F;
-    real_t J;
-    if (!deformation_gradient(kin, flags, b, F, J)) {
-      clear_source(sources, b, k);
-      return;
+  static TeamScratch scratch_for(const Manifold& manifold) {
+    TeamScratch scratch = manifold.team_scratch();
+    scratch.per_item = kinematics_values;
+    return scratch;
+  }
+
+  KOKKOS_INLINE_FUNCTION void operator()(const member_type& member) const {
+    const int num_points = int(X.extent(0)), num_samples = int(sample_x.extent(1));
+    const long total = long(xhat.extent(0)) * num_points;
+    const long first = long(member.league_rank()) * shape.items();
+    real_t* base = scratch.base(member, shape);
+    const real_t* staged = manifold.team_stage(member, base);
+    real_t* own = scratch.thread_part(base, member.team_rank());
+    auto* kinematics = reinterpret_cast<nn::PointKinematics<real_t>*>(scratch.item_part(base, shape));
+    for (int round = 0; round < shape.rounds; ++round) {
+      const long round_first = first + long(round) * shape.threads;
+      const int item = round * shape.threads + member.team_rank();
+      const long e = first + item;
+      const bool active = e < total;
+      const int b = active ? int(e / num_points) : 0, k = active ? int(e % num_points) : 0;
+      const real_t Xk[3] = {X(k, 0), X(k, 1), X(k, 2)};
+      manifold.team_kinematics(member, staged, own, active, Xk, &xhat(b, 0), &xhatdot(b, 0),
+                               any_sample(round_first, shape.threads, total, num_points, num_samples),
+                               kinematics[item], active && k < num_samples ? &sample_J(b, k, 0, 0) : nullptr);
     }
-    const Vec3<real_t> f = loads(b).force_per_unit_mass({{Xk[0], Xk[1], Xk[2]}}, time);
-    write_source(sources, b, k, kin, mass(k), volume(k) * J, F, f, material, dt, apic);
-    if (sample)
-      for (int d = 0; d < 3; ++d) sample_x(b, k, d) = kin.g[d];
+    member.team_barrier();
+    Kokkos::parallel_for(Kokkos::TeamVectorRange(member, shape.items()), [&](const int item) {
+      const long e = first + item;
+      if (e >= total) return;
+      const int b = int(e / num_points), k = int(e % num_points);
+      const nn::PointKinematics<real_t>& kin = kinematics[item];
+      Mat3<real_t> F;
+      real_t J;
+      if (!deformation_gradient(kin, flags, b, F, J)) {
+        clear_source(sources, b, k);
+        return;
+      }
+      const Vec3<real_t> f = loads(b).force_per_unit_mass({{X(k, 0), X(k, 1), X(k, 2)}}, time);
+      write_source(sources, b, k, kin, mass(k), volume(k) * J, F, f, material, dt, apic);
+      if (k < num_samples)
+        for (int d = 0; d < 3; ++d) sample_x(b, k, d) = kin.g[d];
+    });
   }
 };
 
@@ -126,7 +168,8 @@ struct MaterialPointSources {
 // inverting g (warm-started from the previous step's). A point whose inverse lies outside the reference solid is
 // outside the material and carries nothing. A failed inversion is counted; with the fallback on it is retried from
 // the cold start, and if that fails too the point stands for the material point it found last step (placed where g
-// puts it now); without a previous solution (or the fallback) it is dropped.
+// puts it now); without a previous solution (or the fallback) it is dropped. Parallelism: one thread per (rollout,
+// quadrature point).
 template <class Manifold, class MemorySpace>
 struct QuadratureSources {
   Manifold manifold;
@@ -218,22 +261,44 @@ struct CheckInversions {
   }
 };
 
-// Algorithm 2, step 6: the sample material points (fixed reference positions) for the projection.
-template <class Manifold, class MemorySpace>
+// The sample material points (fixed reference positions) for the projection: Algorithm 2's step 6, and both
+// algorithms' re-projection at the trial state. Parallelism: a team per shape.threads (rollout, sample) items, one
+// a team thread, its lanes sharing the network (shape.rounds is not used).
+template <class Manifold, class ExecutionSpace>
 struct SampleKinematics {
+  using MemorySpace = typename ExecutionSpace::memory_space;
+  using member_type = typename Kokkos::TeamPolicy<ExecutionSpace>::member_type;
+
   Manifold manifold;
   Kokkos::View<const real_t**, Kokkos::LayoutRight, MemorySpace> X;  // (samples, 3)
   BatchMatrix<MemorySpace> xhat, xhatdot;
   BatchVectors<MemorySpace> sample_x;
   BatchJacobians<MemorySpace> sample_J;
+  TeamShape shape;
+  TeamScratch scratch;  // the manifold's, with one item's kinematics per thread
 
-  KOKKOS_INLINE_FUNCTION void operator()(const long e) const {
+  static TeamScratch scratch_for(const Manifold& manifold) {
+    TeamScratch scratch = manifold.team_scratch();
+    scratch.per_thread = aligned_values(scratch.per_thread) + kinematics_values;
+    return scratch;
+  }
+
+  KOKKOS_INLINE_FUNCTION void operator()(const member_type& member) const {
     const int num_samples = int(X.extent(0));
-    const int b = int(e / num_samples), s = int(e % num_samples);
+    const long total = long(xhat.extent(0)) * num_samples;
+    const long e = long(member.league_rank()) * shape.threads + member.team_rank();
+    const bool active = e < total;
+    const int b = active ? int(e / num_samples) : 0, s = active ? int(e % num_samples) : 0;
+    real_t* base = scratch.base(member, shape);
+    const real_t* staged = manifold.team_stage(member, base);
+    real_t* own = scratch.thread_part(base, member.team_rank());
+    auto& kin = *reinterpret_cast<nn::PointKinematics<real_t>*>(own + (scratch.per_thread - kinematics_values));
     const real_t Xs[3] = {X(s, 0), X(s, 1), X(s, 2)};
-    nn::PointKinematics<real_t> kin;
-    manifold.kinematics(Xs, &xhat(b, 0), &xhatdot(b, 0), kin, &sample_J(b, s, 0, 0));
-    for (int d = 0; d < 3; ++d) sample_x(b, s, d) = kin.g[d];
+    manifold.team_kinematics(member, staged, own, active, Xs, &xhat(b, 0), &xhatdot(b, 0), true, kin,
+                             active ? &sample_J(b, s, 0, 0) : nullptr);
+    member.team_barrier();
+    Kokkos::parallel_for(Kokkos::ThreadVectorRange(member, active ? 3 : 0),
+                         [&](const int d) { sample_x(b, s, d) = kin.g[d]; });
   }
 };
 

@@ -11,9 +11,24 @@
 
 namespace mpmrom::rom {
 
-// Steps 3-4 for one (rollout, node of I). Parallelism: one thread per (rollout, node).
-template <class MemorySpace>
+// A node's mass and momentum, summed over its sources by a vector reduction (+= joins, zero is the identity).
+struct NodeSums {
+  real_t mass = 0;
+  real_t momentum[3] = {0, 0, 0};
+  KOKKOS_INLINE_FUNCTION NodeSums& operator+=(const NodeSums& other) {
+    mass += other.mass;
+    for (int r = 0; r < 3; ++r) momentum[r] += other.momentum[r];
+    return *this;
+  }
+};
+
+// Steps 3-4 for every (rollout, node of I). Parallelism: a team thread per (rollout, node), its vector lanes taking
+// the node's sources (a few hundred on a fine grid; one lane per node left small batches far from filling a GPU).
+template <class ExecutionSpace>
 struct GatherNodeVelocities {
+  using MemorySpace = typename ExecutionSpace::memory_space;
+  using member_type = typename Kokkos::TeamPolicy<ExecutionSpace>::member_type;
+
   GridGeometry<real_t> grid;
   Kokkos::View<const int*, MemorySpace> nodes;         // (|I|): grid node index of each node of I
   Kokkos::View<const int*, MemorySpace> offsets;       // (|I| + 1): node n gathers sources[offsets(n) .. offsets(n+1))
@@ -23,40 +38,46 @@ struct GatherNodeVelocities {
   real_t time, dt;
   BatchVectors<MemorySpace> node_velocity;  // (rollouts, |I|, 3)
 
-  KOKKOS_INLINE_FUNCTION void operator()(const long e) const {
+  KOKKOS_INLINE_FUNCTION void operator()(const member_type& member) const {
     const int num_nodes = int(nodes.extent(0));
+    const long e = long(member.league_rank()) * member.team_size() + member.team_rank();
+    if (e >= long(node_velocity.extent(0)) * num_nodes) return;
     const int b = int(e / num_nodes), n = int(e % num_nodes);
     int idx[3];
     grid.indices(nodes(n), idx[0], idx[1], idx[2]);
     const Vec3<real_t> xi = grid.position(idx[0], idx[1], idx[2]);
-    real_t m = 0;
-    Vec3<real_t> momentum = Vec3<real_t>::zero();
-    for (int j = offsets(n); j < offsets(n + 1); ++j) {
-      const real_t* src = &sources(b, node_sources(j), 0);
-      if (!(src[source_mass] > real_t(0))) continue;
-      const Vec3<real_t> x{{src[source_x], src[source_x + 1], src[source_x + 2]}};
-      const auto s = quadratic_stencil(x, grid.origin, grid.inv_dx);
-      const int a = idx[0] - s.base[0], c = idx[1] - s.base[1], d = idx[2] - s.base[2];
-      if (a < 0 || a > 2 || c < 0 || c > 2 || d < 0 || d > 2) continue;
-      const real_t w = s.weight(a, c, d);
-      const Vec3<real_t> grad = s.gradient(a, c, d);
-      const Vec3<real_t> offset = xi - x;
-      m += w * src[source_mass];
-      for (int r = 0; r < 3; ++r) {
-        real_t contribution = src[source_momentum + r];
-        for (int q = 0; q < 3; ++q)
-          contribution += src[source_affine + 3 * r + q] * offset[q];
-        momentum[r] += w * contribution;
-        for (int q = 0; q < 3; ++q) momentum[r] += src[source_stress + 3 * r + q] * grad[q];
+    const int first = offsets(n);
+    NodeSums sums;
+    Kokkos::parallel_reduce(
+        Kokkos::ThreadVectorRange(member, offsets(n + 1) - first),
+        [&](const int j, NodeSums& partial) {
+          const real_t* src = &sources(b, node_sources(first + j), 0);
+          if (!(src[source_mass] > real_t(0))) return;
+          const Vec3<real_t> x{{src[source_x], src[source_x + 1], src[source_x + 2]}};
+          const auto s = quadratic_stencil(x, grid.origin, grid.inv_dx);
+          const int a = idx[0] - s.base[0], c = idx[1] - s.base[1], d = idx[2] - s.base[2];
+          if (a < 0 || a > 2 || c < 0 || c > 2 || d < 0 || d > 2) return;
+          const real_t w = s.weight(a, c, d);
+          const Vec3<real_t> grad = s.gradient(a, c, d);
+          const Vec3<real_t> offset = xi - x;
+          partial.mass += w * src[source_mass];
+          for (int r = 0; r < 3; ++r) {
+            real_t contribution = src[source_momentum + r];
+            for (int q = 0; q < 3; ++q) contribution += src[source_affine + 3 * r + q] * offset[q];
+            partial.momentum[r] += w * contribution;
+            for (int q = 0; q < 3; ++q) partial.momentum[r] += src[source_stress + 3 * r + q] * grad[q];
+          }
+        },
+        sums);
+    Kokkos::single(Kokkos::PerThread(member), [&]() {
+      Vec3<real_t> v = Vec3<real_t>::zero();
+      if (sums.mass > real_t(0)) {
+        const RolloutLoads& load = loads(b);
+        for (int r = 0; r < 3; ++r) v[r] = sums.momentum[r] / sums.mass + dt * load.gravity[r];
+        v = constrained_node_velocity(v, idx, grid, load.boundary_at(time));
       }
-    }
-    Vec3<real_t> v = Vec3<real_t>::zero();
-    if (m > real_t(0)) {
-      const RolloutLoads& load = loads(b);
-      for (int r = 0; r < 3; ++r) v[r] = momentum[r] / m + dt * load.gravity[r];
-      v = constrained_node_velocity(v, idx, grid, load.boundary_at(time));
-    }
-    for (int r = 0; r < 3; ++r) node_velocity(b, n, r) = v[r];
+      for (int r = 0; r < 3; ++r) node_velocity(b, n, r) = v[r];
+    });
   }
 };
 

@@ -11,6 +11,7 @@
 #include <limits>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "fom.hpp"
@@ -194,6 +195,15 @@ class BatchStepper final : public BatchStepperBase {
     guard_.max_latent_speed = real_t(max_latent_speed);
     newton_.tolerance = real_t(settings.newton_tolerance * scene.dx);
     newton_.max_iterations = settings.newton_iterations;
+
+    sources_scratch_ = rom::MaterialPointSources<Manifold, ExecutionSpace>::scratch_for(manifold_);
+    samples_scratch_ = rom::SampleKinematics<Manifold, ExecutionSpace>::scratch_for(manifold_);
+    sources_shape_ = rom::team_shape<ExecutionSpace>(manifold_.team_lanes(), sources_scratch_);
+    samples_shape_ = rom::team_shape<ExecutionSpace>(manifold_.team_lanes(), samples_scratch_);
+    if (!Kokkos::SpaceAccessibility<Kokkos::HostSpace, MemorySpace>::accessible) {
+      gather_lanes_ = 32;
+      gather_threads_ = 4;
+    }
   }
 
   bool advance_frame() override {
@@ -317,53 +327,66 @@ class BatchStepper final : public BatchStepperBase {
   void substep(real_t t, real_t dt) {
     const ExecutionSpace space;
     const int B = B_, S = S_, K = K_, I = I_, r = latent_dim_;
-    using Range = Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>>;
+    // Every launch takes its functor as a kernel argument: above 512 bytes Kokkos would copy it to the GPU's constant
+    // memory instead, waiting first for the previous such kernel to finish (a host round trip per launch).
+    using LightWeight = Kokkos::Experimental::WorkItemProperty::HintLightWeight_t;
+    using Range = Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>, LightWeight>;
+    using Teams = Kokkos::TeamPolicy<ExecutionSpace, LightWeight>;
+    using PointSources = rom::MaterialPointSources<Manifold, ExecutionSpace>;
+    using Samples = rom::SampleKinematics<Manifold, ExecutionSpace>;
+    // A team per so many items, with the shape's threads and lanes and its scratch.
+    const auto teams = [&](long items, const rom::TeamShape& shape, int per_team, const rom::TeamScratch& scratch) {
+      return Teams(space, int((items + per_team - 1) / per_team), shape.threads, shape.lanes)
+          .set_scratch_size(0, Kokkos::PerTeam(scratch.bytes(shape)));
+    };
+    const auto sample_kinematics = [&](const Matrix& xhat, const Matrix& xhatdot, const Cube& positions) {
+      Kokkos::parallel_for("mpmrom::rom::sample_kinematics", teams(long(B) * S, samples_shape_, samples_shape_.threads,
+                                                                   samples_scratch_),
+                           Samples{manifold_, samples_X_, xhat, xhatdot, positions, sample_J_, samples_shape_,
+                                   samples_scratch_});
+    };
     if (point_method_) {
-      Kokkos::parallel_for("mpmrom::rom::point_sources", Range(space, 0, long(B) * K),
-                           rom::MaterialPointSources<Manifold, MemorySpace>{
-                               manifold_, points_X_, points_mass_, points_volume_, xhat_, xhatdot_, loads_, material_,
-                               t, dt, apic_, sources_, sample_x_, sample_J_, flags_});
+      Kokkos::parallel_for("mpmrom::rom::point_sources",
+                           teams(long(B) * K, sources_shape_, sources_shape_.items(), sources_scratch_),
+                           PointSources{manifold_, points_X_, points_mass_, points_volume_, xhat_, xhatdot_, loads_,
+                                        material_, t, dt, apic_, sources_, sample_x_, sample_J_, flags_,
+                                        sources_shape_, sources_scratch_});
     } else {
-      Kokkos::parallel_for("mpmrom::rom::sample_kinematics", Range(space, 0, long(B) * S),
-                           rom::SampleKinematics<Manifold, MemorySpace>{manifold_, samples_X_, xhat_, xhatdot_,
-                                                                        sample_x_, sample_J_});
+      sample_kinematics(xhat_, xhatdot_, sample_x_);
       Kokkos::parallel_for("mpmrom::rom::quadrature_sources", Range(space, 0, long(B) * K),
                            rom::QuadratureSources<Manifold, MemorySpace>{
                                manifold_, quadrature_x_, quadrature_w_, domain_, density_, newton_,
                                settings_.inversion_fallback, xhat_, xhatdot_, loads_, material_, t, dt, apic_,
                                reference_, converged_, sources_, failures_, step_failures_, fallbacks_, flags_});
-      Kokkos::parallel_for("mpmrom::rom::check_inversions", Kokkos::RangePolicy<ExecutionSpace>(space, 0, B),
+      Kokkos::parallel_for("mpmrom::rom::check_inversions", Range(space, 0, B),
                            rom::CheckInversions<MemorySpace>{step_failures_, max_failed_inversions_, flags_});
     }
-    Kokkos::parallel_for("mpmrom::rom::gather_nodes", Range(space, 0, long(B) * I),
-                         rom::GatherNodeVelocities<MemorySpace>{grid_, nodes_, offsets_, node_sources_, sources_,
-                                                                loads_, t, dt, node_v_});
+    Kokkos::parallel_for("mpmrom::rom::gather_nodes",
+                         Teams(space, int((long(B) * I + gather_threads_ - 1) / gather_threads_), gather_threads_,
+                               gather_lanes_),
+                         rom::GatherNodeVelocities<ExecutionSpace>{grid_, nodes_, offsets_, node_sources_, sources_,
+                                                                   loads_, t, dt, node_v_});
     // Into a device View: only the last sub-step's speed is read (at the frame's end), so sub-steps never wait.
     Kokkos::parallel_reduce("mpmrom::rom::g2p_samples", Range(space, 0, long(B) * S),
                             rom::SampleVelocities<MemorySpace>{grid_, node_slot_, sample_x_, node_v_, sample_v_,
                                                                flags_},
                             Kokkos::Max<real_t, MemorySpace>(fastest_sample_));
     using Projection = rom::ProjectVelocities<ExecutionSpace, MemorySpace>;
-    const auto project = [&]() {
+    const auto project = [&](bool first_pass) {
       Kokkos::parallel_for("mpmrom::rom::project",
-                           Kokkos::TeamPolicy<ExecutionSpace>(space, B, Kokkos::AUTO)
-                               .set_scratch_size(0, Kokkos::PerTeam(Projection::scratch_bytes(r))),
-                           Projection{r, sample_J_, sample_v_, xhat_, xhat_next_, xhatdot_next_, guard_, dt, flags_,
-                                      max_condition_, regularized_});
+                           Teams(space, B, Kokkos::AUTO).set_scratch_size(0, Kokkos::PerTeam(Projection::scratch_bytes(r))),
+                           Projection{r, sample_J_, sample_v_, xhat_, xhatdot_, xhat_next_, xhatdot_next_, guard_, dt,
+                                      first_pass, flags_, max_condition_, regularized_});
     };
-    Kokkos::deep_copy(space, xhat_next_, xhat_);
-    Kokkos::deep_copy(space, xhatdot_next_, xhatdot_);
-    project();
+    project(true);
     // Re-project with J at the trial next state, so that the new state's own velocity field J(xhat_n+1) xhatdot
     // reproduces the transferred velocities (with J(xhat_n) the manifold's curvature is counted twice).
     for (int iteration = 0; iteration < settings_.projection_iterations; ++iteration) {
-      Kokkos::parallel_for("mpmrom::rom::sample_jacobians", Range(space, 0, long(B) * S),
-                           rom::SampleKinematics<Manifold, MemorySpace>{manifold_, samples_X_, xhat_next_,
-                                                                        xhatdot_next_, trial_x_, sample_J_});
-      project();
+      sample_kinematics(xhat_next_, xhatdot_next_, trial_x_);
+      project(false);
     }
-    Kokkos::deep_copy(space, xhat_, xhat_next_);
-    Kokkos::deep_copy(space, xhatdot_, xhatdot_next_);
+    std::swap(xhat_, xhat_next_);
+    std::swap(xhatdot_, xhatdot_next_);
   }
 
   // Rollouts whose fatal flags went up in this frame stop here; the others have completed one more frame.
@@ -395,6 +418,9 @@ class BatchStepper final : public BatchStepperBase {
   int max_failed_inversions_;
   rom::ProjectionGuard guard_;
   rom::NewtonSettings newton_;
+  rom::TeamScratch sources_scratch_, samples_scratch_;
+  rom::TeamShape sources_shape_, samples_shape_;
+  int gather_threads_ = 1, gather_lanes_ = 1;  // a team thread per (rollout, node), its lanes over the sources
   real_t max_speed_ = 0;  // fastest sample at the end of the last frame, for the next frame's time step
 
   Matrix points_X_, samples_X_, quadrature_x_;
