@@ -46,6 +46,7 @@ struct MlpManifold {
   nn::Mlp<real_t, MemorySpace> mlp;
   nn::TeamMlp<real_t, MemorySpace> team;  // the same network arranged for the team kernels
   bool stage = false;                     // the team kernels copy team.values into scratch first
+  static constexpr bool host_space = Kokkos::SpaceAccessibility<Kokkos::HostSpace, MemorySpace>::accessible;
 
   KOKKOS_INLINE_FUNCTION int latent_dim() const { return mlp.layout.latent_dim; }
 
@@ -64,7 +65,7 @@ struct MlpManifold {
   TeamScratch team_scratch() const {
     TeamScratch scratch;
     scratch.shared = stage ? team.arranged.size : 0;
-    scratch.per_thread = team.thread_scratch_values();
+    scratch.per_thread = host_space ? 0 : team.thread_scratch_values();
     return scratch;
   }
 
@@ -83,8 +84,13 @@ struct MlpManifold {
                                               bool active, const real_t X[3], const real_t* xhat,
                                               const real_t* xhatdot, bool any_jacobian,
                                               nn::PointKinematics<real_t>& out, real_t* dgdxhat) const {
-    nn::TeamMlpKinematics(member, team, staged, thread_scratch, active, X, xhat, xhatdot, any_jacobian, out,
-                          dgdxhat);
+    // Host teams are one thread of one lane: the one-thread evaluation, with its buffers on the stack, is faster there
+    if constexpr (host_space) {
+      if (active) kinematics(X, xhat, xhatdot, out, dgdxhat);
+    } else {
+      nn::TeamMlpKinematics(member, team, staged, thread_scratch, active, X, xhat, xhatdot, any_jacobian, out,
+                            dgdxhat);
+    }
   }
 };
 

@@ -7,6 +7,9 @@
 // Parallelism: per kernel below.
 #pragma once
 
+#include <cstddef>
+#include <string>
+
 #include "kernels/constitutive.hpp"
 #include "kernels/rom/inversion.hpp"
 #include "kernels/rom/loads.hpp"
@@ -19,8 +22,20 @@ namespace mpmrom::rom {
 inline constexpr int source_x = 0, source_mass = 3, source_momentum = 4, source_affine = 7, source_stress = 16,
                      source_size = 25;
 
+// (sources, source_size, rollouts), stored as make_sources says.
 template <class MemorySpace>
-using SourceView = Kokkos::View<real_t***, Kokkos::LayoutRight, MemorySpace>;  // (rollouts, sources, source_size)
+using SourceView = Kokkos::View<real_t***, Kokkos::LayoutStride, MemorySpace>;
+
+// On GPUs the rollouts of a batch side by side, so that threads of consecutive rollouts write and read one source's
+// numbers in whole cache lines; on CPUs each source's numbers side by side, a rollout's sources together, so that a
+// thread gathering a rollout's nodes one after the other finds them in its cache.
+template <class MemorySpace>
+SourceView<MemorySpace> make_sources(const std::string& label, int num_sources, int rollouts) {
+  const std::size_t K = std::size_t(num_sources), B = std::size_t(rollouts), C = source_size;
+  if (Kokkos::SpaceAccessibility<Kokkos::HostSpace, MemorySpace>::accessible)
+    return SourceView<MemorySpace>(label, Kokkos::LayoutStride(K, C, C, 1, B, K * C));
+  return SourceView<MemorySpace>(label, Kokkos::LayoutStride(K, C * B, C, B, B, 1));
+}
 template <class MemorySpace>
 using BatchMatrix = Kokkos::View<real_t**, Kokkos::LayoutRight, MemorySpace>;  // (rollouts, r) and similar
 template <class MemorySpace>
@@ -46,12 +61,11 @@ KOKKOS_INLINE_FUNCTION void write_source(const SourceView<MemorySpace>& sources,
                                          const nn::PointKinematics<real_t>& kin, real_t m, real_t volume,
                                          const Mat3<real_t>& F, const Vec3<real_t>& force_per_mass,
                                          const ElasticMaterial<real_t>& material, real_t dt, bool apic) {
-  real_t* out = &sources(b, k, 0);
   for (int d = 0; d < 3; ++d) {
-    out[source_x + d] = kin.g[d];
-    out[source_momentum + d] = m * (kin.v[d] + dt * force_per_mass[d]);
+    sources(k, source_x + d, b) = kin.g[d];
+    sources(k, source_momentum + d, b) = m * (kin.v[d] + dt * force_per_mass[d]);
   }
-  out[source_mass] = m;
+  sources(k, source_mass, b) = m;
   const real_t J = determinant(F);
   Mat3<real_t> affine = Mat3<real_t>::zero();
   if (apic) {
@@ -63,8 +77,8 @@ KOKKOS_INLINE_FUNCTION void write_source(const SourceView<MemorySpace>& sources,
   const Mat3<real_t> stress = (-dt * volume / J) * kirchhoff_stress(material, F);
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) {
-      out[source_affine + 3 * i + j] = affine(i, j);
-      out[source_stress + 3 * i + j] = stress(i, j);
+      sources(k, source_affine + 3 * i + j, b) = affine(i, j);
+      sources(k, source_stress + 3 * i + j, b) = stress(i, j);
     }
 }
 
@@ -83,22 +97,14 @@ KOKKOS_INLINE_FUNCTION bool deformation_gradient(const nn::PointKinematics<real_
 
 template <class MemorySpace>
 KOKKOS_INLINE_FUNCTION void clear_source(const SourceView<MemorySpace>& sources, int b, int k) {
-  for (int c = 0; c < source_size; ++c) sources(b, k, c) = real_t(0);
-}
-
-// Whether any of the items [first, first + count) (flat (rollout, point) indices over `points` points a rollout) is
-// one of the first `samples` points of its rollout.
-KOKKOS_INLINE_FUNCTION bool any_sample(long first, int count, long total, int points, int samples) {
-  if (first >= total || samples == 0) return false;
-  const int k = int(first % points);
-  return k < samples || first + (points - k) < (first + count < total ? first + count : total);
+  for (int c = 0; c < source_size; ++c) sources(k, c, b) = real_t(0);
 }
 
 // Algorithm 1, step 2: the sample and neighbour material points (sample points first: k < num_samples), each with
 // its full-order mass and reference volume. The samples' positions and dg/dxhat are kept for the projection.
-// Parallelism: a team per shape.items() (rollout, point) items (team_shape.hpp): each team thread runs the network
-// for shape.rounds points with its lanes, the kinematics kept in scratch, then the team's threads and lanes take
-// one point each for the stress.
+// Parallelism: a team per shape.items() (point, rollout) items, rollouts fastest (team_shape.hpp): each team thread
+// runs the network for shape.rounds items with its lanes, the kinematics kept in scratch, then the team's threads
+// and lanes take one item each for the stress.
 template <class Manifold, class ExecutionSpace>
 struct MaterialPointSources {
   using MemorySpace = typename ExecutionSpace::memory_space;
@@ -126,9 +132,10 @@ struct MaterialPointSources {
   }
 
   KOKKOS_INLINE_FUNCTION void operator()(const member_type& member) const {
-    const int num_points = int(X.extent(0)), num_samples = int(sample_x.extent(1));
-    const long total = long(xhat.extent(0)) * num_points;
+    const int num_rollouts = int(xhat.extent(0)), num_samples = int(sample_x.extent(1));
+    const long total = long(X.extent(0)) * num_rollouts;
     const long first = long(member.league_rank()) * shape.items();
+    const long sample_items = long(num_samples) * num_rollouts;  // the first items: samples come first
     real_t* base = scratch.base(member, shape);
     const real_t* staged = manifold.team_stage(member, base);
     real_t* own = scratch.thread_part(base, member.team_rank());
@@ -138,17 +145,17 @@ struct MaterialPointSources {
       const int item = round * shape.threads + member.team_rank();
       const long e = first + item;
       const bool active = e < total;
-      const int b = active ? int(e / num_points) : 0, k = active ? int(e % num_points) : 0;
+      const int k = active ? int(e / num_rollouts) : 0, b = active ? int(e % num_rollouts) : 0;
       const real_t Xk[3] = {X(k, 0), X(k, 1), X(k, 2)};
       manifold.team_kinematics(member, staged, own, active, Xk, &xhat(b, 0), &xhatdot(b, 0),
-                               any_sample(round_first, shape.threads, total, num_points, num_samples),
-                               kinematics[item], active && k < num_samples ? &sample_J(b, k, 0, 0) : nullptr);
+                               round_first < sample_items, kinematics[item],
+                               active && k < num_samples ? &sample_J(b, k, 0, 0) : nullptr);
     }
     member.team_barrier();
     Kokkos::parallel_for(Kokkos::TeamVectorRange(member, shape.items()), [&](const int item) {
       const long e = first + item;
       if (e >= total) return;
-      const int b = int(e / num_points), k = int(e % num_points);
+      const int k = int(e / num_rollouts), b = int(e % num_rollouts);
       const nn::PointKinematics<real_t>& kin = kinematics[item];
       Mat3<real_t> F;
       real_t J;
@@ -223,13 +230,13 @@ struct QuadratureSources {
       } else {
         converged(b, q) = 0;
         clear_source(sources, b, q);
-        for (int d = 0; d < 3; ++d) sources(b, q, source_x + d) = xq[d];
+        for (int d = 0; d < 3; ++d) sources(q, source_x + d, b) = xq[d];
         return;
       }
     }
     if (!domain.contains(Xq)) {
       clear_source(sources, b, q);
-      for (int d = 0; d < 3; ++d) sources(b, q, source_x + d) = xq[d];
+      for (int d = 0; d < 3; ++d) sources(q, source_x + d, b) = xq[d];
       return;
     }
     nn::PointKinematics<real_t> kin;

@@ -11,6 +11,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "kernels/compat/kokkos_compat.hpp"
 #include "kernels/nn/mlp_kinematics.hpp"
 #include "mpmrom_config.hpp"
 
@@ -56,10 +57,11 @@ struct TeamScratch {
   }
 };
 
-// The shape for a manifold that wants `lanes` lanes per item and this scratch: on GPUs 128 / lanes threads (fewer if
-// the scratch would not fit) taking `lanes` items each, so that the stress phase has one item per lane.
+// The shape for `items` items on a manifold that wants `lanes` lanes per item and this scratch: on GPUs 128 / lanes
+// threads (fewer if the scratch would not fit) taking up to `lanes` items each, so that the stress phase has one item
+// per lane; fewer rounds when the items would not fill the GPU otherwise (a short round trip matters more then).
 template <class ExecutionSpace>
-TeamShape team_shape(int lanes, const TeamScratch& scratch) {
+TeamShape team_shape(long items, int lanes, const TeamScratch& scratch, const ExecutionSpace& space = {}) {
   if (Kokkos::SpaceAccessibility<Kokkos::HostSpace, typename ExecutionSpace::memory_space>::accessible)
     return TeamShape{};
   TeamShape shape{std::max(1, 128 / lanes), lanes, lanes};
@@ -68,6 +70,9 @@ TeamShape team_shape(int lanes, const TeamScratch& scratch) {
     throw std::runtime_error("the network needs " + std::to_string(scratch.bytes(shape)) +
                              " bytes of team scratch, more than the " + std::to_string(team_scratch_budget) +
                              " the reduced model's kernels may use: use a narrower network");
+  // rounds such that the teams' threads and lanes number about the GPU's resident threads
+  const long resident = compat::concurrency(space);
+  shape.rounds = int(std::max(1L, std::min(long(lanes), items * lanes / std::max(1L, resident))));
   return shape;
 }
 

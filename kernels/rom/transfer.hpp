@@ -11,7 +11,7 @@
 
 namespace mpmrom::rom {
 
-// A node's mass and momentum, summed over its sources by a vector reduction (+= joins, zero is the identity).
+// A node's mass and momentum, summed over its sources (in a vector reduction: += joins, zero is the identity).
 struct NodeSums {
   real_t mass = 0;
   real_t momentum[3] = {0, 0, 0};
@@ -22,13 +22,45 @@ struct NodeSums {
   }
 };
 
-// Steps 3-4 for every (rollout, node of I). Parallelism: a team thread per (rollout, node), its vector lanes taking
-// the node's sources (a few hundred on a fine grid; one lane per node left small batches far from filling a GPU).
-template <class ExecutionSpace>
-struct GatherNodeVelocities {
-  using MemorySpace = typename ExecutionSpace::memory_space;
-  using member_type = typename Kokkos::TeamPolicy<ExecutionSpace>::member_type;
+// Step 3 for one (node, source) pair: source k of rollout b adds its share to node i at xi (grid indices idx) if its
+// stencil reaches the node.
+template <class MemorySpace>
+KOKKOS_INLINE_FUNCTION void add_source(const GridGeometry<real_t>& grid, const SourceView<MemorySpace>& sources,
+                                       int k, int b, const int idx[3], const Vec3<real_t>& xi, NodeSums& sums) {
+  const real_t mass = sources(k, source_mass, b);
+  if (!(mass > real_t(0))) return;
+  const Vec3<real_t> x{{sources(k, source_x, b), sources(k, source_x + 1, b), sources(k, source_x + 2, b)}};
+  const auto s = quadratic_stencil(x, grid.origin, grid.inv_dx);
+  const int a = idx[0] - s.base[0], c = idx[1] - s.base[1], d = idx[2] - s.base[2];
+  if (a < 0 || a > 2 || c < 0 || c > 2 || d < 0 || d > 2) return;
+  const real_t w = s.weight(a, c, d);
+  const Vec3<real_t> grad = s.gradient(a, c, d);
+  const Vec3<real_t> offset = xi - x;
+  sums.mass += w * mass;
+  for (int r = 0; r < 3; ++r) {
+    real_t contribution = sources(k, source_momentum + r, b);
+    for (int q = 0; q < 3; ++q) contribution += sources(k, source_affine + 3 * r + q, b) * offset[q];
+    sums.momentum[r] += w * contribution;
+    for (int q = 0; q < 3; ++q) sums.momentum[r] += sources(k, source_stress + 3 * r + q, b) * grad[q];
+  }
+}
 
+// Step 4: the node's velocity from its sums, with gravity and the boundary conditions.
+template <class MemorySpace>
+KOKKOS_INLINE_FUNCTION void write_node_velocity(const GridGeometry<real_t>& grid, const RolloutLoads& load,
+                                                real_t time, real_t dt, const int idx[3], const NodeSums& sums,
+                                                const BatchVectors<MemorySpace>& node_velocity, int b, int n) {
+  Vec3<real_t> v = Vec3<real_t>::zero();
+  if (sums.mass > real_t(0)) {
+    for (int r = 0; r < 3; ++r) v[r] = sums.momentum[r] / sums.mass + dt * load.gravity[r];
+    v = constrained_node_velocity(v, idx, grid, load.boundary_at(time));
+  }
+  for (int r = 0; r < 3; ++r) node_velocity(b, n, r) = v[r];
+}
+
+// Steps 3-4 for every (node of I, rollout). Two mappings, the same sums in the same order:
+template <class MemorySpace>
+struct GatherNodeVelocities {
   GridGeometry<real_t> grid;
   Kokkos::View<const int*, MemorySpace> nodes;         // (|I|): grid node index of each node of I
   Kokkos::View<const int*, MemorySpace> offsets;       // (|I| + 1): node n gathers sources[offsets(n) .. offsets(n+1))
@@ -37,12 +69,31 @@ struct GatherNodeVelocities {
   Kokkos::View<const RolloutLoads*, MemorySpace> loads;
   real_t time, dt;
   BatchVectors<MemorySpace> node_velocity;  // (rollouts, |I|, 3)
+  bool rollouts_fastest;                    // item order of the one-thread mapping
 
-  KOKKOS_INLINE_FUNCTION void operator()(const member_type& member) const {
-    const int num_nodes = int(nodes.extent(0));
+  // One thread per (node, rollout), the node's sources in a row. With rollouts fastest (GPUs, make_sources) a warp
+  // reads each source's numbers of 32 rollouts in whole cache lines; with nodes fastest (CPUs) a thread gathers a
+  // rollout's nodes one after the other. For batches that fill the device, and on CPUs.
+  KOKKOS_INLINE_FUNCTION void operator()(const long e) const {
+    const int num_rollouts = int(node_velocity.extent(0)), num_nodes = int(nodes.extent(0));
+    const int n = rollouts_fastest ? int(e / num_rollouts) : int(e % num_nodes);
+    const int b = rollouts_fastest ? int(e % num_rollouts) : int(e / num_nodes);
+    int idx[3];
+    grid.indices(nodes(n), idx[0], idx[1], idx[2]);
+    const Vec3<real_t> xi = grid.position(idx[0], idx[1], idx[2]);
+    NodeSums sums;
+    for (int j = offsets(n); j < offsets(n + 1); ++j) add_source(grid, sources, node_sources(j), b, idx, xi, sums);
+    write_node_velocity(grid, loads(b), time, dt, idx, sums, node_velocity, b, n);
+  }
+
+  // A team thread per (node, rollout), its vector lanes taking the node's sources (a few hundred on a fine grid):
+  // for small batches on GPUs, which one thread per node would leave nearly idle.
+  template <class Member>
+  KOKKOS_INLINE_FUNCTION void operator()(const Member& member) const {
+    const int num_rollouts = int(node_velocity.extent(0));
     const long e = long(member.league_rank()) * member.team_size() + member.team_rank();
-    if (e >= long(node_velocity.extent(0)) * num_nodes) return;
-    const int b = int(e / num_nodes), n = int(e % num_nodes);
+    if (e >= long(nodes.extent(0)) * num_rollouts) return;
+    const int n = int(e / num_rollouts), b = int(e % num_rollouts);
     int idx[3];
     grid.indices(nodes(n), idx[0], idx[1], idx[2]);
     const Vec3<real_t> xi = grid.position(idx[0], idx[1], idx[2]);
@@ -50,34 +101,10 @@ struct GatherNodeVelocities {
     NodeSums sums;
     Kokkos::parallel_reduce(
         Kokkos::ThreadVectorRange(member, offsets(n + 1) - first),
-        [&](const int j, NodeSums& partial) {
-          const real_t* src = &sources(b, node_sources(first + j), 0);
-          if (!(src[source_mass] > real_t(0))) return;
-          const Vec3<real_t> x{{src[source_x], src[source_x + 1], src[source_x + 2]}};
-          const auto s = quadratic_stencil(x, grid.origin, grid.inv_dx);
-          const int a = idx[0] - s.base[0], c = idx[1] - s.base[1], d = idx[2] - s.base[2];
-          if (a < 0 || a > 2 || c < 0 || c > 2 || d < 0 || d > 2) return;
-          const real_t w = s.weight(a, c, d);
-          const Vec3<real_t> grad = s.gradient(a, c, d);
-          const Vec3<real_t> offset = xi - x;
-          partial.mass += w * src[source_mass];
-          for (int r = 0; r < 3; ++r) {
-            real_t contribution = src[source_momentum + r];
-            for (int q = 0; q < 3; ++q) contribution += src[source_affine + 3 * r + q] * offset[q];
-            partial.momentum[r] += w * contribution;
-            for (int q = 0; q < 3; ++q) partial.momentum[r] += src[source_stress + 3 * r + q] * grad[q];
-          }
-        },
+        [&](const int j, NodeSums& partial) { add_source(grid, sources, node_sources(first + j), b, idx, xi, partial); },
         sums);
-    Kokkos::single(Kokkos::PerThread(member), [&]() {
-      Vec3<real_t> v = Vec3<real_t>::zero();
-      if (sums.mass > real_t(0)) {
-        const RolloutLoads& load = loads(b);
-        for (int r = 0; r < 3; ++r) v[r] = sums.momentum[r] / sums.mass + dt * load.gravity[r];
-        v = constrained_node_velocity(v, idx, grid, load.boundary_at(time));
-      }
-      for (int r = 0; r < 3; ++r) node_velocity(b, n, r) = v[r];
-    });
+    Kokkos::single(Kokkos::PerThread(member),
+                   [&]() { write_node_velocity(grid, loads(b), time, dt, idx, sums, node_velocity, b, n); });
   }
 };
 

@@ -115,6 +115,7 @@ class BatchStepper final : public BatchStepperBase {
   using Cube = DeviceCube;
   using Quad = DeviceQuad;
   using IndexView = Kokkos::View<int*, DeviceMemory>;
+  static constexpr bool host_space = Kokkos::SpaceAccessibility<Kokkos::HostSpace, MemorySpace>::accessible;
 
  public:
   // The batch at (xhat0, xhatdot0) (rollouts x r, row-major) at time 0, to be advanced through the scene's output
@@ -169,7 +170,7 @@ class BatchStepper final : public BatchStepperBase {
     }
     xhat_ = upload<Matrix>("mpmrom::rom::xhat", xhat0, B, r);
     xhatdot_ = upload<Matrix>("mpmrom::rom::xhatdot", xhatdot0, B, r);
-    sources_ = rom::SourceView<MemorySpace>("mpmrom::rom::sources", B, K, rom::source_size);
+    sources_ = rom::make_sources<MemorySpace>("mpmrom::rom::sources", K, B);
     sample_x_ = Cube("mpmrom::rom::sample_x", B, S, 3);
     sample_v_ = Cube("mpmrom::rom::sample_v", B, S, 3);
     sample_J_ = Quad("mpmrom::rom::sample_J", B, S, 3, r);
@@ -198,11 +199,13 @@ class BatchStepper final : public BatchStepperBase {
 
     sources_scratch_ = rom::MaterialPointSources<Manifold, ExecutionSpace>::scratch_for(manifold_);
     samples_scratch_ = rom::SampleKinematics<Manifold, ExecutionSpace>::scratch_for(manifold_);
-    sources_shape_ = rom::team_shape<ExecutionSpace>(manifold_.team_lanes(), sources_scratch_);
-    samples_shape_ = rom::team_shape<ExecutionSpace>(manifold_.team_lanes(), samples_scratch_);
-    if (!Kokkos::SpaceAccessibility<Kokkos::HostSpace, MemorySpace>::accessible) {
-      gather_lanes_ = 32;
-      gather_threads_ = 4;
+    sources_shape_ = rom::team_shape<ExecutionSpace>(long(B) * K, manifold_.team_lanes(), sources_scratch_);
+    samples_shape_ = rom::team_shape<ExecutionSpace>(long(B) * S, manifold_.team_lanes(), samples_scratch_);
+    // On GPUs, a batch too small to give each of a quarter of the resident threads a node gathers across lanes;
+    // the projection takes its rows across lanes.
+    if (!host_space) {
+      gather_across_lanes_ = long(B) * I_ * 4 < long(compat::concurrency(ExecutionSpace()));
+      projection_lanes_ = 32;
     }
   }
 
@@ -361,11 +364,12 @@ class BatchStepper final : public BatchStepperBase {
       Kokkos::parallel_for("mpmrom::rom::check_inversions", Range(space, 0, B),
                            rom::CheckInversions<MemorySpace>{step_failures_, max_failed_inversions_, flags_});
     }
-    Kokkos::parallel_for("mpmrom::rom::gather_nodes",
-                         Teams(space, int((long(B) * I + gather_threads_ - 1) / gather_threads_), gather_threads_,
-                               gather_lanes_),
-                         rom::GatherNodeVelocities<ExecutionSpace>{grid_, nodes_, offsets_, node_sources_, sources_,
-                                                                   loads_, t, dt, node_v_});
+    const rom::GatherNodeVelocities<MemorySpace> gather{grid_, nodes_, offsets_, node_sources_, sources_, loads_, t, dt,
+                                                        node_v_, !host_space};
+    if (gather_across_lanes_)
+      Kokkos::parallel_for("mpmrom::rom::gather_nodes", Teams(space, int((long(B) * I + 3) / 4), 4, 32), gather);
+    else
+      Kokkos::parallel_for("mpmrom::rom::gather_nodes", Range(space, 0, long(B) * I), gather);
     // Into a device View: only the last sub-step's speed is read (at the frame's end), so sub-steps never wait.
     Kokkos::parallel_reduce("mpmrom::rom::g2p_samples", Range(space, 0, long(B) * S),
                             rom::SampleVelocities<MemorySpace>{grid_, node_slot_, sample_x_, node_v_, sample_v_,
@@ -374,7 +378,8 @@ class BatchStepper final : public BatchStepperBase {
     using Projection = rom::ProjectVelocities<ExecutionSpace, MemorySpace>;
     const auto project = [&](bool first_pass) {
       Kokkos::parallel_for("mpmrom::rom::project",
-                           Teams(space, B, Kokkos::AUTO).set_scratch_size(0, Kokkos::PerTeam(Projection::scratch_bytes(r))),
+                           Teams(space, B, Kokkos::AUTO, projection_lanes_)
+                               .set_scratch_size(0, Kokkos::PerTeam(Projection::scratch_bytes(r))),
                            Projection{r, sample_J_, sample_v_, xhat_, xhatdot_, xhat_next_, xhatdot_next_, guard_, dt,
                                       first_pass, flags_, max_condition_, regularized_});
     };
@@ -420,7 +425,8 @@ class BatchStepper final : public BatchStepperBase {
   rom::NewtonSettings newton_;
   rom::TeamScratch sources_scratch_, samples_scratch_;
   rom::TeamShape sources_shape_, samples_shape_;
-  int gather_threads_ = 1, gather_lanes_ = 1;  // a team thread per (rollout, node), its lanes over the sources
+  bool gather_across_lanes_ = false;
+  int projection_lanes_ = 1;
   real_t max_speed_ = 0;  // fastest sample at the end of the last frame, for the next frame's time step
 
   Matrix points_X_, samples_X_, quadrature_x_;
