@@ -23,6 +23,32 @@ struct PointKinematics {
 // Channel layout of the forward sweep: 0 primal, 1-3 d/dX_j, 4 d/dxhatdot, 5-7 d2/(dX_j dxhatdot).
 inline constexpr int kinematics_channels = 8;
 
+// The eight channels of one neuron (kinematics_channels), read and written as one aligned block.
+template <class T>
+struct alignas(sizeof(T) * kinematics_channels) NeuronChannels {
+  T c[kinematics_channels];
+};
+
+// A neuron's eight channels from its pre-activations: ELU with its tangents (hidden layers) or as they are (output),
+// the slope kept in *slope for the reverse sweeps (hidden layers only).
+template <class T>
+KOKKOS_INLINE_FUNCTION void finish_neuron(const T (&a)[kinematics_channels], bool hidden, NeuronChannels<T>& z,
+                                          T* slope) {
+  if (!hidden) {
+    for (int c = 0; c < kinematics_channels; ++c) z.c[c] = a[c];
+    return;
+  }
+  T d1;
+  elu_and_derivative(a[0], z.c[0], d1);
+  const T d2 = a[0] > T(0) ? T(0) : d1;  // elu'' = elu' = exp(a) below zero: no second exp
+  *slope = d1;
+  for (int j = 0; j < 3; ++j) {
+    z.c[1 + j] = d1 * a[1 + j];
+    z.c[5 + j] = d2 * a[1 + j] * a[4] + d1 * a[5 + j];
+  }
+  z.c[4] = d1 * a[4];
+}
+
 // Parallelism contract: one thread, no team, no scratch; MaxWidth >= layout.widest. xhat and xhatdot point at r
 // contiguous values; dgdxhat, if not null, receives the 3 x r Jacobian row-major.
 template <int MaxWidth, class T, class MemorySpace>
@@ -56,20 +82,9 @@ KOKKOS_INLINE_FUNCTION void SerialMlpKinematics(const Mlp<T, MemorySpace>& mlp, 
         const T w = mlp.weight(l, i, j);
         for (int c = 0; c < kinematics_channels; ++c) a[c] += w * h[c][j];
       }
-      if (!hidden) {
-        for (int c = 0; c < kinematics_channels; ++c) next[c][i] = a[c];
-        continue;
-      }
-      T value, d1;
-      elu_and_derivative(a[0], value, d1);
-      const T d2 = a[0] > T(0) ? T(0) : d1;  // elu'' = elu' = exp(a) below zero: no second exp
-      slope[l][i] = d1;
-      next[0][i] = value;
-      for (int j = 0; j < 3; ++j) {
-        next[1 + j][i] = d1 * a[1 + j];
-        next[5 + j][i] = d2 * a[1 + j] * a[4] + d1 * a[5 + j];
-      }
-      next[4][i] = d1 * a[4];
+      NeuronChannels<T> z;
+      finish_neuron(a, hidden, z, hidden ? &slope[l][i] : nullptr);
+      for (int c = 0; c < kinematics_channels; ++c) next[c][i] = z.c[c];
     }
     auto* tmp = h;
     h = next;

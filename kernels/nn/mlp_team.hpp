@@ -1,5 +1,6 @@
 // The deformation map's kinematics (mlp_kinematics.hpp) evaluated by a team: the vector lanes of one team thread
-// share a point, lane i computing neurons i, i + V, ... of every layer. The point's activations (the eight channels
+// share a point; in the forward pass lane i computes neurons i and i + n/2 of an n-neuron layer (then i + V and so
+// on), in the reverse sweeps the adjoint of input i (then i + V). The point's activations (the eight channels
 // of a neuron side by side, read together), the ELU slopes and the adjoints sit in team scratch; the weights are
 // read transposed with an odd row stride, so that lanes read consecutive weights in the forward pass and weights one
 // stride apart in the reverse sweeps, both without shared-memory bank conflicts, and may be staged in scratch once
@@ -12,12 +13,6 @@
 #include "kernels/nn/mlp_kinematics.hpp"
 
 namespace mpmrom::nn {
-
-// The eight channels of one neuron (kinematics_channels), read and written as one aligned block.
-template <class T>
-struct alignas(sizeof(T) * kinematics_channels) NeuronChannels {
-  T c[kinematics_channels];
-};
 
 // Where each layer sits in the transposed parameter array: Wt_l(j, i) = W_l(i, j) at weight_offset[l] + j * stride[l]
 // + i, b_l(i) at bias_offset[l] + i.
@@ -76,13 +71,14 @@ struct TeamMlp {
   }
 };
 
-// Vector lanes a team thread should give one point: the power of two up to 32 that wastes the fewest lanes over
-// the widest layer (ties: the larger).
+// Vector lanes a team thread should give one point, two neurons a lane: the power of two up to 32 that wastes the
+// fewest lanes over the widest layer's pairs of neurons (ties: the larger).
 inline int lanes_for_width(int widest) {
+  const int pairs = (widest + 1) / 2;
   int best = 32;
-  long best_work = long((widest + 31) / 32) * 32;
+  long best_work = long((pairs + 31) / 32) * 32;
   for (int lanes = 16; lanes >= 1; lanes /= 2) {
-    const long work = long((widest + lanes - 1) / lanes) * lanes;
+    const long work = long((pairs + lanes - 1) / lanes) * lanes;
     if (work < best_work) {
       best = lanes;
       best_work = work;
@@ -129,31 +125,24 @@ KOKKOS_INLINE_FUNCTION void TeamMlpKinematics(const Member& member, const TeamMl
     const int n_in = layout.dims[l], stride = arranged.stride[l];
     const T* Wt = weights + arranged.weight_offset[l];
     const T* bias = weights + arranged.bias_offset[l];
-    T* layer_slope = slope + l * w;
+    T* layer_slope = hidden ? slope + l * w : nullptr;
     const NeuronChannels<T>* in = h;
     NeuronChannels<T>* result = next;
-    Kokkos::parallel_for(Kokkos::ThreadVectorRange(member, active ? layout.dims[l + 1] : 0), [&](const int i) {
-      T a[C] = {bias[i]};
+    // Two neurons a lane, i and i + half: each activation read from scratch feeds 16 multiply-adds, not 8.
+    const int n_out = layout.dims[l + 1], half = (n_out + 1) / 2;
+    Kokkos::parallel_for(Kokkos::ThreadVectorRange(member, active ? half : 0), [&](const int i) {
+      const bool second = i + half < n_out;
+      T a[C] = {bias[i]}, b[C] = {second ? bias[i + half] : T(0)};
       for (int j = 0; j < n_in; ++j) {
-        const T weight = Wt[j * stride + i];
+        const T weight = Wt[j * stride + i], other = second ? Wt[j * stride + i + half] : T(0);
         const NeuronChannels<T> hj = in[j];
-        for (int c = 0; c < C; ++c) a[c] += weight * hj.c[c];
-      }
-      NeuronChannels<T> z;
-      if (hidden) {
-        T d1;
-        elu_and_derivative(a[0], z.c[0], d1);
-        const T d2 = a[0] > T(0) ? T(0) : d1;  // elu'' = elu' = exp(a) below zero: no second exp
-        layer_slope[i] = d1;
-        for (int j = 0; j < 3; ++j) {
-          z.c[1 + j] = d1 * a[1 + j];
-          z.c[5 + j] = d2 * a[1 + j] * a[4] + d1 * a[5 + j];
+        for (int c = 0; c < C; ++c) {
+          a[c] += weight * hj.c[c];
+          b[c] += other * hj.c[c];
         }
-        z.c[4] = d1 * a[4];
-      } else {
-        for (int c = 0; c < C; ++c) z.c[c] = a[c];
       }
-      result[i] = z;
+      finish_neuron(a, hidden, result[i], hidden ? layer_slope + i : nullptr);
+      if (second) finish_neuron(b, hidden, result[i + half], hidden ? layer_slope + i + half : nullptr);
     });
     member.team_barrier();
     NeuronChannels<T>* tmp = h;

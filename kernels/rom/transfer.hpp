@@ -69,15 +69,19 @@ struct GatherNodeVelocities {
   Kokkos::View<const RolloutLoads*, MemorySpace> loads;
   real_t time, dt;
   BatchVectors<MemorySpace> node_velocity;  // (rollouts, |I|, 3)
-  bool rollouts_fastest;                    // item order of the one-thread mapping
+  int rollout_tile;                         // item order of the one-thread mapping, below
 
-  // One thread per (node, rollout), the node's sources in a row. With rollouts fastest (GPUs, make_sources) a warp
-  // reads each source's numbers of 32 rollouts in whole cache lines; with nodes fastest (CPUs) a thread gathers a
-  // rollout's nodes one after the other. For batches that fill the device, and on CPUs.
+  // One thread per (node, rollout), the node's sources in a row, items ordered by tiles of rollout_tile rollouts,
+  // node by node within a tile, rollouts fastest. On GPUs (tiles of 32, make_sources) a warp reads each source's
+  // numbers of its 32 rollouts in whole cache lines, and the nodes sharing a source read it while a tile's sources
+  // (a few MB) are still in the L2 cache; on CPUs (tiles of 1) a thread gathers a rollout's nodes one after the other.
+  // For batches that fill the device, and on CPUs.
   KOKKOS_INLINE_FUNCTION void operator()(const long e) const {
     const int num_rollouts = int(node_velocity.extent(0)), num_nodes = int(nodes.extent(0));
-    const int n = rollouts_fastest ? int(e / num_rollouts) : int(e % num_nodes);
-    const int b = rollouts_fastest ? int(e % num_rollouts) : int(e / num_nodes);
+    const long first_rollout = e / (long(rollout_tile) * num_nodes) * rollout_tile;
+    const int width = int(num_rollouts - first_rollout < rollout_tile ? num_rollouts - first_rollout : rollout_tile);
+    const long offset = e - first_rollout * num_nodes;
+    const int n = int(offset / width), b = int(first_rollout + offset % width);
     int idx[3];
     grid.indices(nodes(n), idx[0], idx[1], idx[2]);
     const Vec3<real_t> xi = grid.position(idx[0], idx[1], idx[2]);

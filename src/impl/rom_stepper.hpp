@@ -365,7 +365,7 @@ class BatchStepper final : public BatchStepperBase {
                            rom::CheckInversions<MemorySpace>{step_failures_, max_failed_inversions_, flags_});
     }
     const rom::GatherNodeVelocities<MemorySpace> gather{grid_, nodes_, offsets_, node_sources_, sources_, loads_, t, dt,
-                                                        node_v_, !host_space};
+                                                        node_v_, host_space ? 1 : 32};
     if (gather_across_lanes_)
       Kokkos::parallel_for("mpmrom::rom::gather_nodes", Teams(space, int((long(B) * I + 3) / 4), 4, 32), gather);
     else
