@@ -54,8 +54,8 @@ std::vector<double> RolloutBatch::latent_rate() const {
 
 std::vector<RolloutOutcome> RolloutBatch::outcomes() const {
   auto outcomes = stepper_->outcomes();
-  for (std::size_t c = 0; c < cases_.size(); ++c)
-    outcomes[c].warning = training_range_warning(*model_, names_, cases_[c].values);
+  const auto warnings = training_range_warnings(*model_, names_, cases_);
+  for (std::size_t c = 0; c < cases_.size(); ++c) outcomes[c].warning = warnings[c];
   return outcomes;
 }
 

@@ -798,37 +798,50 @@ double training_latent_speed(const Model& model) {
   return fastest;
 }
 
-std::string training_range_warning(const Model& model, const std::vector<std::string>& names,
-                                   const std::vector<double>& values) {
-  if (model.scene_text.empty()) return "";
+std::vector<std::string> training_range_warnings(const Model& model, const std::vector<std::string>& names,
+                                                 const std::vector<RolloutCase>& cases) {
+  std::vector<std::string> warnings(cases.size());
+  if (model.scene_text.empty()) return warnings;
   Scene trained;
   try {
     trained = parse_scene(model.scene_text, "the model's scene");
   } catch (const std::exception&) {
-    return "";  // a model from another version of the scene format: no range to compare with
+    return warnings;  // a model from another version of the scene format: no range to compare with
   }
   const ParameterDesign& design = trained.design;
   const auto runs = design.all_runs();
-  std::string warning;
-  for (std::size_t i = 0; i < names.size() && i < values.size(); ++i) {
+  // the training runs' range of each named parameter (lo > hi: not a parameter of the design)
+  std::vector<double> lo(names.size(), std::numeric_limits<double>::infinity()), hi(names.size(), -lo[0]);
+  for (std::size_t i = 0; i < names.size(); ++i) {
     const auto it = std::find(design.names.begin(), design.names.end(), names[i]);
     if (it == design.names.end()) continue;
     const std::size_t column = std::size_t(it - design.names.begin());
-    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
     for (std::size_t run = 0; run < runs.size(); ++run) {
       if (std::find(design.test_runs.begin(), design.test_runs.end(), int(run)) != design.test_runs.end()) continue;
-      lo = std::min(lo, runs[run][column]);
-      hi = std::max(hi, runs[run][column]);
+      lo[i] = std::min(lo[i], runs[run][column]);
+      hi[i] = std::max(hi[i], runs[run][column]);
     }
-    if (!(lo <= hi) || (values[i] >= lo && values[i] <= hi)) continue;
-    const double beyond = values[i] < lo ? lo - values[i] : values[i] - hi;
-    std::ostringstream line;
-    line << (warning.empty() ? "" : "; ") << names[i] << " = " << values[i] << " lies outside the training range ["
-         << lo << ", " << hi << "]";
-    if (hi > lo) line << " by " << std::lround(100 * beyond / (hi - lo)) << " % of its width";
-    warning += line.str();
   }
-  return warning.empty() ? warning : warning + " (extrapolation: expect larger errors)";
+  for (std::size_t c = 0; c < cases.size(); ++c) {
+    const std::vector<double>& values = cases[c].values;
+    std::string warning;
+    for (std::size_t i = 0; i < names.size() && i < values.size(); ++i) {
+      if (!(lo[i] <= hi[i]) || (values[i] >= lo[i] && values[i] <= hi[i])) continue;
+      const double beyond = values[i] < lo[i] ? lo[i] - values[i] : values[i] - hi[i];
+      std::ostringstream line;
+      line << (warning.empty() ? "" : "; ") << names[i] << " = " << values[i] << " lies outside the training range ["
+           << lo[i] << ", " << hi[i] << "]";
+      if (hi[i] > lo[i]) line << " by " << std::lround(100 * beyond / (hi[i] - lo[i])) << " % of its width";
+      warning += line.str();
+    }
+    warnings[c] = warning.empty() ? warning : warning + " (extrapolation: expect larger errors)";
+  }
+  return warnings;
+}
+
+std::string training_range_warning(const Model& model, const std::vector<std::string>& names,
+                                   const std::vector<double>& values) {
+  return training_range_warnings(model, names, {RolloutCase{values}}).front();
 }
 
 namespace {
@@ -868,13 +881,14 @@ std::unique_ptr<impl::BatchStepperBase> impl::create_stepper(const Model& model,
     throw std::runtime_error("the hyper-reduction has no sample points or no nodes");
   std::vector<rom::RolloutLoads> loads;
   std::vector<double> xhat0, xhatdot0;
+  const SceneRuns scene_runs(scene_path);
   Scene first;
   std::vector<double> first_xhat, first_xhatdot;
   for (std::size_t c = 0; c < cases.size(); ++c) {
     if (cases[c].values.size() != names.size())
       throw std::runtime_error("rollout " + std::to_string(c) + " has " + std::to_string(cases[c].values.size()) +
                                " parameter values for " + std::to_string(names.size()) + " names");
-    const Scene scene = scene_for_run(scene_path, names, cases[c].values);
+    const Scene scene = scene_runs.run(names, cases[c].values);
     if (c == 0) {
       first = scene;
       const ParticleSamples samples = sample_scene(scene);
@@ -939,8 +953,8 @@ RomResult run_rollouts(const Model& model, const std::string& scene_path, const 
   result.setup_seconds = seconds_since(start);
   impl::record_rollouts(*stepper, result, progress, checkpoint,
                         checkpoint.path.empty() ? "" : batch_identity(model, scene_path, names, cases, settings));
-  for (std::size_t c = 0; c < cases.size(); ++c)
-    result.outcomes[c].warning = training_range_warning(model, names, cases[c].values);
+  const auto warnings = training_range_warnings(model, names, cases);
+  for (std::size_t c = 0; c < cases.size(); ++c) result.outcomes[c].warning = warnings[c];
   return result;
 }
 
@@ -1065,8 +1079,8 @@ RomResult run_rollouts(const parallel::Communicator& comm, const Model& model, c
   own.path = checkpoint.path.empty() ? "" : rank_checkpoint_path(checkpoint.path, comm.rank(), comm.size());
   impl::record_rollouts(*stepper, result, comm.is_root() ? progress : std::function<void(const RomProgress&)>(), own,
                         own.path.empty() ? "" : batch_identity(model, scene_path, names, mine, settings), comm);
-  for (std::size_t c = 0; c < mine.size(); ++c)
-    result.outcomes[c].warning = training_range_warning(model, names, mine[c].values);
+  const auto warnings = training_range_warnings(model, names, mine);
+  for (std::size_t c = 0; c < mine.size(); ++c) result.outcomes[c].warning = warnings[c];
   result.step_seconds = comm.max(result.step_seconds);  // the ranks step together: the slowest one's time
   const auto parts = comm.gather(share_bytes(result));
   if (!comm.is_root()) return result;

@@ -123,6 +123,9 @@ double training_latent_speed(const Model& model);
 // scene the model was trained on), with the distance in widths of that range; empty when all lie inside.
 std::string training_range_warning(const Model& model, const std::vector<std::string>& names,
                                    const std::vector<double>& values);
+// The same for every rollout of a batch, the model's scene parsed once.
+std::vector<std::string> training_range_warnings(const Model& model, const std::vector<std::string>& names,
+                                                 const std::vector<RolloutCase>& cases);
 
 // Where a long batch of rollouts saves its state (docs/reliability.md): path empty for none. A checkpoint names its
 // batch (a hash of the model's weights, the scene file, the settings and the rollouts' parameters); one of another

@@ -9,6 +9,8 @@
 
 #include <cmath>
 #include <fstream>
+#include <memory>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <stdexcept>
@@ -186,24 +188,27 @@ double parse_override_number(const std::string& key, const std::string& text) {
   return value;
 }
 
-Scene parse(const std::string& path, const std::string& text, const std::vector<std::string>& overrides,
-            const std::map<std::string, double>* run_parameters) {
-  toml::table root;
+toml::table parse_toml(const std::string& path, const std::string& text) {
   try {
-    root = toml::parse(text, path);
+    return toml::parse(text, path);
   } catch (const toml::parse_error& e) {
     std::ostringstream msg;
     msg << path << ":" << e.source().begin.line << ":" << e.source().begin.column << ": " << e.description();
     throw std::runtime_error("scene " + msg.str());
   }
+}
 
+// The scene from the file's parsed table; overrides with dotted keys change a copy of it.
+Scene build(const std::string& path, const std::string& text, const toml::table& parsed,
+            const std::vector<std::string>& overrides, const std::map<std::string, double>* run_parameters) {
+  std::optional<toml::table> changed_root;
   Scene scene;
   scene.source_text = text;
   scene.source_path = path;
 
   // Parameters: defaults from [parameters], then the run's values, then bare --set keys.
   std::map<std::string, double> parameters;
-  if (const toml::table* p = root["parameters"].as_table()) {
+  if (const toml::table* p = parsed["parameters"].as_table()) {
     for (const auto& [key, node] : *p) {
       const auto value = node.value<double>();
       if (!value) fail(path, "[parameters] " + std::string(key.str()) + " must be a number");
@@ -221,7 +226,8 @@ Scene parse(const std::string& path, const std::string& text, const std::vector<
       if (!parameters.count(key)) throw std::runtime_error("--set " + key + ": the scene has no such parameter");
       parameters[key] = parse_override_number(key, value);
     } else {
-      set_entry(root, key, value);
+      if (!changed_root) changed_root = parsed;
+      set_entry(*changed_root, key, value);
       entries_changed = true;
     }
   }
@@ -232,10 +238,11 @@ Scene parse(const std::string& path, const std::string& text, const std::vector<
       std::string list;
       for (const auto& o : overrides) list += (list.empty() ? "" : " ") + o;
       return list;
-    }() << "\n" << root << "\n";
+    }() << "\n" << *changed_root << "\n";
     scene.source_text = changed.str();
   }
   scene.parameters = parameters;
+  const toml::table& root = changed_root ? *changed_root : parsed;
 
   TableReader top(root, path, parameters);
   top.mark_used("parameters");
@@ -480,6 +487,11 @@ Scene parse(const std::string& path, const std::string& text, const std::vector<
   return scene;
 }
 
+Scene parse(const std::string& path, const std::string& text, const std::vector<std::string>& overrides,
+            const std::map<std::string, double>* run_parameters) {
+  return build(path, text, parse_toml(path, text), overrides, run_parameters);
+}
+
 std::string read_text(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw std::runtime_error("scene " + path + ": cannot be read");
@@ -564,10 +576,27 @@ Scene override_scene(const Scene& scene, const std::vector<std::string>& overrid
   return parse(scene.source_path, scene.source_text, overrides, &scene.parameters);
 }
 
+struct SceneRuns::Parsed {
+  std::string path, text;
+  toml::table root;
+};
+
+SceneRuns::SceneRuns(const std::string& path) {
+  auto parsed = std::make_shared<Parsed>();
+  parsed->path = path;
+  parsed->text = read_text(path);
+  parsed->root = parse_toml(path, parsed->text);
+  parsed_ = std::move(parsed);
+}
+
+Scene SceneRuns::run(const std::vector<std::string>& names, const std::vector<double>& values) const {
+  std::map<std::string, double> parameters;
+  for (std::size_t k = 0; k < names.size(); ++k) parameters[names[k]] = values.at(k);
+  return build(parsed_->path, parsed_->text, parsed_->root, {}, &parameters);
+}
+
 Scene scene_for_run(const std::string& path, const std::vector<std::string>& names, const std::vector<double>& values) {
-  std::map<std::string, double> run;
-  for (std::size_t k = 0; k < names.size(); ++k) run[names[k]] = values.at(k);
-  return parse(path, read_text(path), {}, &run);
+  return SceneRuns(path).run(names, values);
 }
 
 }  // namespace mpmrom

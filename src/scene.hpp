@@ -4,6 +4,7 @@
 
 #include <array>
 #include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -123,5 +124,17 @@ Scene refine_scene(const Scene& scene, double factor);
 
 // The same scene with its parameters set to one run of the design (values in design.names order).
 Scene scene_for_run(const std::string& path, const std::vector<std::string>& names, const std::vector<double>& values);
+
+// A scene file read and parsed once, for many runs' parameter values (a batch of rollouts): run() is
+// scene_for_run without reading and parsing the file again.
+class SceneRuns {
+ public:
+  explicit SceneRuns(const std::string& path);
+  Scene run(const std::vector<std::string>& names, const std::vector<double>& values) const;
+
+ private:
+  struct Parsed;
+  std::shared_ptr<const Parsed> parsed_;
+};
 
 }  // namespace mpmrom
