@@ -50,7 +50,7 @@ class Communicator {
 
  private:
   Communicator(bool world, int rank, int size) : world_(world), rank_(rank), size_(size) {}
-  bool world_;
+  [[maybe_unused]] bool world_;  // read only by the MPI build
   int rank_, size_;
 };
 

@@ -841,7 +841,7 @@ std::vector<std::string> training_range_warnings(const Model& model, const std::
 
 std::string training_range_warning(const Model& model, const std::vector<std::string>& names,
                                    const std::vector<double>& values) {
-  return training_range_warnings(model, names, {RolloutCase{values}}).front();
+  return training_range_warnings(model, names, {RolloutCase{values, ""}}).front();
 }
 
 namespace {
