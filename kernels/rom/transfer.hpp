@@ -58,7 +58,8 @@ KOKKOS_INLINE_FUNCTION void write_node_velocity(const GridGeometry<real_t>& grid
   for (int r = 0; r < 3; ++r) node_velocity(b, n, r) = v[r];
 }
 
-// Steps 3-4 for every (node of I, rollout). Two mappings, the same sums in the same order:
+// Steps 3-4 for every (node of I, rollout), in one of two mappings; each sums in a fixed order, but not the same
+// one (list order, or lane partials joined), so their results differ by round-off:
 template <class MemorySpace>
 struct GatherNodeVelocities {
   GridGeometry<real_t> grid;
