@@ -2,21 +2,29 @@
 # Configures and builds mpmrom in build/<variant>/: float or double precision, and float-mpi or double-mpi for the
 # MPI build (docs/mpi.md); default double. Installs the Debian packages and the cached OpenMP Kokkos first when they
 # are missing. Use your own Kokkos with KOKKOS_ROOT=/path. Extra arguments go to CMake's configure step.
+# Prints the build folder on stdout and nothing else (progress goes to stderr); a failed step ends it with one line
+# "build: error: ..." and a non-zero exit.
 set -euo pipefail
+exec 3>&1 1>&2  # fd 3 is the result (the build folder); every tool's output goes to stderr
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 variant=${1:-double}
 shift || true
 case "$variant" in
   float|double) precision=$variant; mpi=OFF;;
   float-mpi|double-mpi) precision=${variant%-mpi}; mpi=ON;;
-  *) echo "build.sh: the build must be float, double, float-mpi or double-mpi, not '$variant'" >&2; exit 2;;
+  *) echo "build: error: the build must be float, double, float-mpi or double-mpi, not '$variant'"; exit 2;;
 esac
 
-"$here/scripts/install-deps.sh"
-kokkos_root=${KOKKOS_ROOT:-$("$here/scripts/install-kokkos.sh")}
+"$here/scripts/install-deps.sh" || { echo "build: error: the Debian packages could not be installed"; exit 1; }
+kokkos_root=${KOKKOS_ROOT:-}
+if [ -z "$kokkos_root" ]; then
+  kokkos_root=$("$here/scripts/install-kokkos.sh") || { echo "build: error: Kokkos could not be installed"; exit 1; }
+fi
 
 build_dir="$here/build/$variant"
+echo "build: configuring $build_dir (Kokkos in $kokkos_root)"
 cmake -S "$here" -B "$build_dir" -DKokkos_ROOT="$kokkos_root" -DMPMROM_PRECISION="$precision" \
-      -DMPMROM_ENABLE_MPI="$mpi" "$@" >&2
-cmake --build "$build_dir" --parallel "$(nproc)" >&2
-echo "$build_dir"
+      -DMPMROM_ENABLE_MPI="$mpi" "$@" || { echo "build: error: CMake could not configure $build_dir"; exit 1; }
+echo "build: compiling $build_dir on $(nproc) cores (about 10 minutes from scratch on 2 cores)"
+cmake --build "$build_dir" --parallel "$(nproc)" || { echo "build: error: compiling $build_dir failed"; exit 1; }
+echo "$build_dir" >&3

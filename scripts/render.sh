@@ -6,15 +6,16 @@ set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 command -v pvbatch > /dev/null || { echo "render: error: pvbatch not found (Debian package paraview)" >&2; exit 1; }
 command -v xvfb-run > /dev/null || { echo "render: error: xvfb-run not found (Debian package xvfb)" >&2; exit 1; }
+log=$(mktemp "${TMPDIR:-/tmp}/render.XXXXXX")
+trap 'rm -f "$log"' EXIT
+status=1
 for attempt in 1 2; do
-  if xvfb-run -a -s "-screen 0 1600x1200x24" pvbatch "$here/render.py" "$@" 2> "${TMPDIR:-/tmp}/render.$$.log"; then
-    rm -f "${TMPDIR:-/tmp}/render.$$.log"
-    exit 0
-  fi
-  status=$?
+  status=0
+  xvfb-run -a -s "-screen 0 1600x1200x24" pvbatch "$here/render.py" "$@" 2> "$log" || status=$?
+  [ "$status" -eq 0 ] && exit 0
   # render.py's own errors are one line "render: error: ..."; anything else is ParaView's, worth a retry
-  if grep -q "^render: error:" "${TMPDIR:-/tmp}/render.$$.log"; then break; fi
+  if grep -q "^render: error:" "$log"; then break; fi
 done
-grep -v '^\s*[0-9]* *0x' "${TMPDIR:-/tmp}/render.$$.log" | grep -m 3 -i "error\|render:" >&2 || true
-rm -f "${TMPDIR:-/tmp}/render.$$.log"
-exit "${status:-1}"
+grep -v '^\s*[0-9]* *0x' "$log" | grep -m 3 -i "error\|render:" >&2 || true
+echo "render: error: pvbatch failed (exit $status) on: $*" >&2
+exit "$status"

@@ -1,19 +1,31 @@
 #!/usr/bin/env bash
 # README's test command: sets up everything on a fresh Debian machine (packages, cached Kokkos), builds mpmrom in
 # double precision with MPI and in float precision without, and runs the whole test suite for both (the MPI build
-# adds test_mpi and test_mpi_cli, on two processes: docs/mpi.md); then the sanitizer job
-# (scripts/sanitize.sh: the suite under ASan + UBSan, and the fuzzers' smoke runs); and the example consumer
-# (scripts/example.sh: examples/rollout_consumer built against the installed package, running three rollouts).
-# Exits non-zero on any failure.
+# adds test_mpi and test_mpi_cli, on two processes: docs/mpi.md); then the set-up scripts on a simulated fresh
+# machine (tests/fresh_machine.sh); the example consumer (scripts/example.sh: examples/rollout_consumer built against
+# the installed package, running three rollouts); and the sanitizer job (scripts/sanitize.sh: the suite under
+# ASan + UBSan, and the fuzzers' repeatable runs). MPMROM_SETUP_ONLY=1 stops after the set-up and builds.
+# Prints ctest's results (and nothing else) on stdout; exits non-zero on any failure, naming the failed parts last.
 set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
-status=0
-for variant in double-mpi float; do
-  build_dir=$("$here/scripts/build.sh" "$variant")
-  echo "== tests, $variant ==" >&2
-  (cd "$build_dir" && ctest --output-on-failure --timeout 1200) || status=1
+variants=(double-mpi float)
+for variant in "${variants[@]}"; do
+  "$here/scripts/build.sh" "$variant" > /dev/null
 done
+[ -n "${MPMROM_SETUP_ONLY:-}" ] && { echo "test: set up: ${variants[*]} built in $here/build" >&2; exit 0; }
+
+failed=()
+for variant in "${variants[@]}"; do
+  echo "== tests, $variant ==" >&2
+  (cd "$here/build/$variant" && ctest --output-on-failure --timeout 1200) || failed+=("tests ($variant)")
+done
+echo "== the set-up scripts on a simulated fresh machine ==" >&2
+bash "$here/tests/fresh_machine.sh" >&2 || failed+=("fresh-machine set-up")
 echo "== example consumer against the installed package ==" >&2
-"$here/scripts/example.sh" "$here/build/double-mpi" || status=1
-"$here/scripts/sanitize.sh" || status=1
-exit $status
+"$here/scripts/example.sh" "$here/build/double-mpi" >&2 || failed+=("example consumer")
+"$here/scripts/sanitize.sh" >&2 || failed+=("sanitizers and fuzzers")
+if [ ${#failed[@]} -gt 0 ]; then
+  echo "test: error: failed: $(IFS=,; echo "${failed[*]}" | sed 's/,/, /g')" >&2
+  exit 1
+fi
+echo "test: every part passed" >&2
