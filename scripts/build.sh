@@ -3,7 +3,7 @@
 # MPI build (docs/mpi.md); default double. Installs the Debian packages and the cached OpenMP Kokkos first when they
 # are missing. Use your own Kokkos with KOKKOS_ROOT=/path. Extra arguments go to CMake's configure step.
 # Prints the build folder on stdout and nothing else (progress goes to stderr); a failed step ends it with one line
-# "build: error: ..." and a non-zero exit.
+# "...: error: ..." from the script that found it (install-deps, install-kokkos, or this one) and a non-zero exit.
 set -euo pipefail
 exec 3>&1 1>&2  # fd 3 is the result (the build folder); every tool's output goes to stderr
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -15,11 +15,8 @@ case "$variant" in
   *) echo "build: error: the build must be float, double, float-mpi or double-mpi, not '$variant'"; exit 2;;
 esac
 
-"$here/scripts/install-deps.sh" || { echo "build: error: the Debian packages could not be installed"; exit 1; }
-kokkos_root=${KOKKOS_ROOT:-}
-if [ -z "$kokkos_root" ]; then
-  kokkos_root=$("$here/scripts/install-kokkos.sh") || { echo "build: error: Kokkos could not be installed"; exit 1; }
-fi
+"$here/scripts/install-deps.sh"  # each install script prints its own error line
+kokkos_root=${KOKKOS_ROOT:-$("$here/scripts/install-kokkos.sh")}
 
 build_dir="$here/build/$variant"
 echo "build: configuring $build_dir (Kokkos in $kokkos_root)"

@@ -6,13 +6,13 @@
 # then pictures/ (scripts/pictures.sh: a test run and its reduced model rendered by ParaView, PNG and GIF).
 # Run again, it reuses the sweep and the trained model. Arguments go to `mpmrom pipeline`.
 # MPMROM_SETUP_ONLY=1 stops after the set-up (packages, Kokkos, build). Prints nothing on stdout; a failed step
-# ends it with one line "...: error: ..." and a non-zero exit.
+# ends it with the one "...: error: ..." line of the step that failed and a non-zero exit.
 set -euo pipefail
 exec 1>&2  # no result on stdout: the outputs are files in out/poke_pipeline
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 build_dir="$here/build/double"
 start=$SECONDS
-"$here/scripts/install-deps.sh" --render || { echo "main: error: the Debian packages could not be installed"; exit 1; }
+"$here/scripts/install-deps.sh" --render  # the set-up scripts print their own error line
 "$here/scripts/build.sh" double > /dev/null
 echo "main: set up in $((SECONDS - start)) s: $build_dir/apps/mpmrom"
 [ -n "${MPMROM_SETUP_ONLY:-}" ] && exit 0
@@ -20,9 +20,8 @@ echo "main: set up in $((SECONDS - start)) s: $build_dir/apps/mpmrom"
 export OMP_PROC_BIND=${OMP_PROC_BIND:-spread} OMP_PLACES=${OMP_PLACES:-threads}
 "$build_dir/apps/mpmrom" info
 out="$here/out/poke_pipeline"
-"$build_dir/apps/mpmrom" pipeline "$here/scenes/poke_cylinder.toml" --out "$out" "$@" ||
-  { echo "main: error: the pipeline failed (its message is above)"; exit 1; }
-"$here/scripts/pictures.sh" "$out" "$here/scenes/poke_cylinder.toml" "$build_dir" ||
-  { echo "main: error: the pictures could not be rendered (messages above)"; exit 1; }
+# each step prints its own one-line error and fails this script
+"$build_dir/apps/mpmrom" pipeline "$here/scenes/poke_cylinder.toml" --out "$out" "$@"
+"$here/scripts/pictures.sh" "$out" "$here/scenes/poke_cylinder.toml" "$build_dir"
 echo "main: done in $((SECONDS - start)) s: open out/poke_pipeline/report.md (charts beside it) and pictures/;" \
   "data/runs/*.xmf open in ParaView"
