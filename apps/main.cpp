@@ -256,7 +256,7 @@ int main(int argc, char** argv) {
                 "Checkpoints go to MODEL.h5.ckpt while training and are removed once MODEL.h5 is written.");
 
   mpmrom::RomSettings rom_settings;
-  std::string rom_method = "point", rom_selection = "region", params_path, rom_path, decode_mode = "none";
+  std::string rom_method = "point", rom_selection = "greedy", params_path, rom_path, decode_mode = "none";
   std::vector<std::string> rom_data;
   double decode_spacing = 0;
   bool rollout_json = false;
@@ -270,9 +270,11 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   rollout->add_option("--samples", rom_settings.samples, "Sample material points for the projection; 0: all points")
       ->capture_default_str();
-  rollout->add_option("--selection", rom_selection, "Sample selection: region, random or greedy")
+  rollout->add_option("--selection", rom_selection,
+                      "Sample selection: greedy (from the model's stored ranking, or refitted to --data), region or "
+                      "random")
       ->capture_default_str();
-  rollout->add_option("--data", rom_data, "Full-order training runs (sweep directory), for --selection greedy");
+  rollout->add_option("--data", rom_data, "Full-order training runs (sweep directory) to refit --selection greedy to");
   rollout->add_option("--seed", rom_settings.seed, "Seed of --selection random")->capture_default_str();
   rollout->add_option("--params", params_path, "Parameter file (design.csv form); default: the scene's design")
       ->check(CLI::ExistingFile);
@@ -538,8 +540,10 @@ int main(int argc, char** argv) {
       };
       if (!quiet && world.size() > 1)
         std::cerr << "mpmrom train: data-parallel over " << world.size() << " processes\n";
-      const auto model = mpmrom::train_model(data, training, checkpoint, resume, callbacks, world);
+      auto model = mpmrom::train_model(data, training, checkpoint, resume, callbacks, world);
       if (!world.is_root()) return 0;
+      if (!quiet) std::cerr << "mpmrom train: ranking " << mpmrom::ranked_samples << " sample points greedily\n";
+      model.sample_ranking = mpmrom::rank_samples_greedily(model, data, mpmrom::ranked_samples);
       mpmrom::save_model(model_path, model);
       std::error_code ignored;
       std::filesystem::remove(checkpoint, ignored);
@@ -621,7 +625,12 @@ int main(int argc, char** argv) {
       file.samples = reduction.samples;
       file.sets = reduction;
       const double rollout_steps = double(result.steps) * double(cases.size());
+      const double simulated = result.times.empty() ? 0.0 : result.times.back() - result.times.front();
       file.timing = {{"steps", result.steps},
+                     {"simulated_seconds", simulated},
+                     // the cost users compare with the FOM's: wall time per simulated second, per rollout
+                     {"rom_seconds_per_simulated_second",
+                      simulated > 0 ? result.step_seconds / (simulated * double(cases.size())) : 0.0},
                      {"rollouts", cases.size()},
                      {"setup_seconds", result.setup_seconds},
                      {"step_seconds_total", result.step_seconds},
@@ -691,8 +700,6 @@ int main(int argc, char** argv) {
     }
     if (*stability) {
       stability_settings.selection = mpmrom::sample_selection_from_string(stability_selection);
-      if (stability_settings.selection == mpmrom::SampleSelection::Greedy && stability_settings.data_dir.empty())
-        throw std::invalid_argument("--selection greedy needs --data (the sweep the model was trained on)");
       std::size_t done = 0;
       const auto cases = mpmrom::run_stability(stability_settings, [&](const mpmrom::StabilityCase& c) {
         if (quiet) return;
@@ -734,7 +741,7 @@ int main(int argc, char** argv) {
       const mpmrom::Model model = mpmrom::load_model(path);
       if (mpmrom::model_checksum(model) != rom.model_checksum)
         throw std::runtime_error(path + ": not the model " + rom_path + " was run with (its weights differ)");
-      const auto data = mpmrom::load_training_data(references);
+      const auto data = mpmrom::load_runs(references);
       const auto errors = mpmrom::evaluate_rom(rom, model, data);
       if (evaluate_json) std::cout << errors.dump() << "\n";
       if (!quiet) {

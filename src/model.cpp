@@ -42,6 +42,8 @@ void check_model(const std::string& path, const Model& m) {
   require_finite(path, "weights", m.weights.data(), {m.weights.size()});
   require_finite(path, "codes", m.codes.data(), {m.codes.size()});
   require_finite(path, "X", m.X.data(), {n, 3});
+  for (const auto p : m.sample_ranking)
+    if (p < 0 || std::size_t(p) >= n) bad(path, "the sample ranking names a point that does not exist");
   for (int d = 0; d < 3; ++d)
     if (!(m.standardization.input_scale[d] > 0) || !(m.standardization.output_scale[d] > 0))
       bad(path, "standardisation scales must be positive");
@@ -102,6 +104,11 @@ void save_model(const std::string& path, const Model& m, const OptimizerState* o
     write_stored(reference, "X", m.X, {n, 3});
     write_stored(reference, "mass", m.mass, {n});
     write_stored(reference, "volume", m.volume, {n});
+
+    if (!m.sample_ranking.empty()) {
+      hdf5::Group samples = file.create_group("samples");
+      write_dataset(samples, "greedy_ranking", hdf5::Element::int64, m.sample_ranking, {m.sample_ranking.size()});
+    }
 
     if (optimizer) {
       const std::size_t total = m.weights.size() + m.codes.size();
@@ -191,6 +198,15 @@ Model load_model(const std::string& path, OptimizerState* optimizer) {
   m.X = read_checked(path, reference.dataset("X"), {n, 3}, "");
   m.mass = read_checked(path, reference.dataset("mass"), {n}, "(one per point)");
   m.volume = read_checked(path, reference.dataset("volume"), {n}, "(one per point)");
+  if (file.has_child("samples")) {  // optional: models trained before the ranking was stored have none
+    const hdf5::Dataset ranking = file.group("samples").dataset("greedy_ranking");
+    const auto shape = ranking.shape();
+    if (shape.size() != 1 || shape[0] == 0 || shape[0] > n)
+      bad(path, "dataset /samples/greedy_ranking has shape " + shape_string(shape) + ", expected (1 to " +
+                    std::to_string(n) + " samples)");
+    m.sample_ranking = checked_integers<std::int64_t>(path, "/samples/greedy_ranking",
+                                                      read_checked(path, ranking, shape, ""), 0, double(n - 1));
+  }
   check_model(path, m);
 
   if (optimizer) {

@@ -34,6 +34,10 @@ struct Model {
   // The reference configuration the map was trained on: X (points, 3), mass, volume (points).
   std::vector<double> X, mass, volume;
 
+  // Sample points in greedy order (rank_samples_greedily, from the training runs): the first k are the greedy
+  // selection of k samples, so a rollout needs no training data to select them. Empty in models without one.
+  std::vector<std::int64_t> sample_ranking;
+
   std::string scene_name;
   std::string scene_text;
   nlohmann::json settings = nlohmann::json::object();  // training settings, as given

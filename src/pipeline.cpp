@@ -319,6 +319,10 @@ class Study {
       model = load_model(path);
       if (model.settings == training.to_json() && model.runs.size() == fit_.train.runs.size()) {
         say("network " + shape.name() + ": reusing " + path);
+        if (model.sample_ranking.empty()) {  // a model written before rollouts took their samples from it
+          model.sample_ranking = rank_samples_greedily(model, fit_, ranked_samples);
+          save_model(path, model);
+        }
         if (fs::exists(history_path)) std::ifstream(history_path) >> history;
         record_model(shape, model, history, path);
         return model;
@@ -338,6 +342,7 @@ class Study {
     };
     const std::string checkpoint = path + ".ckpt";
     model = train_model(fit_, training, checkpoint, fs::exists(checkpoint), callbacks);
+    model.sample_ranking = rank_samples_greedily(model, fit_, ranked_samples);
     save_model(path, model);
     write_file_atomically(history_path, history.dump());
     std::error_code ignored;

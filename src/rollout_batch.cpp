@@ -75,8 +75,6 @@ DecodedFields RolloutBatch::decode(int rollout, const std::vector<double>& X) co
 
 ReducedModel ReducedModel::load(const std::string& model_path, const std::string& scene_path, RomSettings settings) {
   settings.validate();
-  if (settings.selection == SampleSelection::Greedy)
-    throw std::invalid_argument("greedy sample selection needs the training runs: use select_samples with them");
   ReducedModel rom;
   rom.model_ = std::make_shared<const Model>(load_model(model_path));
   rom.scene_ = load_scene(scene_path);

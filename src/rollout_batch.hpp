@@ -69,8 +69,9 @@ class RolloutBatch {
 // sets (sample points, node set).
 class ReducedModel {
  public:
-  // Loads the model file and the scene file, and selects sample points with settings.selection (region or random;
-  // greedy selection needs the training runs: build the sets with select_samples and build_hyper_reduction).
+  // Loads the model file and the scene file, and selects sample points with settings.selection (greedy from the
+  // model's stored ranking, region or random; for a greedy selection refitted to other runs, build the sets with
+  // select_samples and build_hyper_reduction).
   static ReducedModel load(const std::string& model_path, const std::string& scene_path, RomSettings settings = {});
 
   const Model& model() const { return *model_; }

@@ -357,11 +357,22 @@ std::vector<int> select_samples(const Model& model, const Scene& scene, const Ro
       return order;
     }
     case SampleSelection::Greedy:
-      if (data == nullptr || data->train.runs.empty())
-        throw std::invalid_argument("greedy sample selection needs the full-order training runs (--data)");
-      return greedy_samples(model, *data, count);
+      if (data != nullptr && !data->train.runs.empty()) return greedy_samples(model, *data, count);
+      if (model.sample_ranking.empty())
+        throw std::invalid_argument("greedy sample selection: the model stores no sample ranking (it was trained "
+                                    "by an older mpmrom); pass --data SWEEP_DIR or use --selection region");
+      if (model.sample_ranking.size() < count)
+        throw std::invalid_argument("greedy sample selection: the model ranks " +
+                                    std::to_string(model.sample_ranking.size()) + " sample points, " +
+                                    std::to_string(count) + " were asked for; pass --data SWEEP_DIR for more");
+      return {model.sample_ranking.begin(), model.sample_ranking.begin() + std::ptrdiff_t(count)};
   }
   return {};
+}
+
+std::vector<std::int64_t> rank_samples_greedily(const Model& model, const TrainingData& data, std::size_t count) {
+  const auto chosen = greedy_samples(model, data, std::min(count, model.num_points()));
+  return {chosen.begin(), chosen.end()};
 }
 
 void impl::apply_horizon(Scene& scene, double end_time) {
@@ -672,19 +683,32 @@ rom::ReferenceDomain impl::reference_domain(const Scene& scene) {
   return domain;
 }
 
-std::string impl::describe_flags(int flags) {
+std::string impl::describe_flags(int flags, bool with_remedies) {
+  struct Cause {
+    int flag;
+    const char *what, *remedy;
+  };
+  static constexpr Cause table[] = {
+      {rom::flag_inverted, "an inverted deformation gradient (det F <= 0)", "try a smaller --cfl or more --samples"},
+      {rom::flag_not_finite, "a non-finite projected velocity", "try a smaller --cfl"},
+      {rom::flag_left_node_set,
+       "a sample point left the precomputed node set (motion beyond the training envelope)",
+       "widen --margin, or train on runs whose motion covers these parameters"},
+      {rom::flag_singular, "singular normal equations even after regularisation",
+       "use more --samples or --selection greedy"},
+      {rom::flag_ill_posed,
+       "ill-conditioned normal equations (condition estimate above the limit, regularisation off)",
+       "drop --no-regularize or use more --samples"},
+      {rom::flag_energy,
+       "energy blow-up: the latent speed exceeded --energy-growth times the fastest training motion",
+       "try more --samples or a smaller --cfl, or raise --energy-growth if the motion is truly faster"},
+      {rom::flag_inversion,
+       "Newton's inversion failed at more than --max-failed-inversions of the quadrature points",
+       "try --method point, or raise --newton-iterations"},
+  };
   std::vector<std::string> causes;
-  if (flags & rom::flag_inverted) causes.push_back("an inverted deformation gradient (det F <= 0)");
-  if (flags & rom::flag_not_finite) causes.push_back("a non-finite projected velocity");
-  if (flags & rom::flag_left_node_set)
-    causes.push_back("a sample point left the precomputed node set (motion beyond the training envelope)");
-  if (flags & rom::flag_singular) causes.push_back("singular normal equations even after regularisation");
-  if (flags & rom::flag_ill_posed)
-    causes.push_back("ill-conditioned normal equations (condition estimate above the limit, regularisation off)");
-  if (flags & rom::flag_energy)
-    causes.push_back("energy blow-up: the latent speed exceeded --energy-growth times the fastest training motion");
-  if (flags & rom::flag_inversion)
-    causes.push_back("Newton's inversion failed at more than --max-failed-inversions of the quadrature points");
+  for (const Cause& c : table)
+    if (flags & c.flag) causes.push_back(std::string(c.what) + (with_remedies ? std::string(" (") + c.remedy + ")" : ""));
   std::string out;
   for (std::size_t i = 0; i < causes.size(); ++i) out += (i ? "; " : "") + causes[i];
   return out;

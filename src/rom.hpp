@@ -31,7 +31,8 @@ std::string to_string(SampleSelection selection);
 struct RomSettings {
   RomMethod method = RomMethod::MaterialPoint;
   int samples = 15;  // sample material points; 0: every point (no hyper-reduction)
-  SampleSelection selection = SampleSelection::Region;
+  // Greedy: the lowest measured error of the three (docs/rom.md "Defaults"); from the model's stored ranking.
+  SampleSelection selection = SampleSelection::Greedy;
   std::uint64_t seed = 1;          // random selection
   double cfl = 0;                  // time step = cfl dx / (wave speed + fastest sample); 0: the scene's cfl
   double envelope_margin = 0.25;   // cells of slack around the training motion when building the node set
@@ -69,10 +70,18 @@ struct HyperReduction {
   nlohmann::json summary() const;
 };
 
-// Picks settings.samples material points (all of them when 0). Greedy selection needs the full-order training runs
-// (data), whose velocities it fits; the other rules need only the model and the scene.
+// Picks settings.samples material points (all of them when 0). Greedy selection fits the full-order training runs'
+// velocities: from data when given, else the model's stored ranking (Model::sample_ranking); the other rules need
+// only the model and the scene.
 std::vector<int> select_samples(const Model& model, const Scene& scene, const RomSettings& settings,
                                 const TrainingData* data);
+
+// How many sample points a trained model ranks (Model::sample_ranking): more than any measured configuration uses.
+inline constexpr std::size_t ranked_samples = 64;
+
+// The first `count` points of the greedy selection on the model's training runs (data), in the order chosen: its
+// first k entries are the greedy selection of k. Stored with the model by `mpmrom train` and the pipeline.
+std::vector<std::int64_t> rank_samples_greedily(const Model& model, const TrainingData& data, std::size_t count);
 
 // Node set, neighbours and quadrature points for the given samples, from the motion of the model's training codes.
 HyperReduction build_hyper_reduction(const Model& model, const Scene& scene, const RomSettings& settings,

@@ -121,7 +121,8 @@ class Study {
       }
     }
     std::filesystem::create_directories(std::filesystem::path(settings.out_dir) / "scenes");
-    if (settings.selection == SampleSelection::Greedy) data_ = load_training_data({settings.data_dir});
+    if (settings.selection == SampleSelection::Greedy && !settings.data_dir.empty())
+      data_ = load_training_data({settings.data_dir});
   }
 
   const std::vector<StabilityCase>& cases() const { return cases_; }

@@ -63,9 +63,9 @@ std::vector<std::string> design_column(const std::string& csv_path, const std::s
   return values;
 }
 
-TrainingData load_training_data(const std::vector<std::string>& inputs,
-                                const std::function<void(const std::string&)>& on_file) {
-  if (inputs.empty()) throw std::runtime_error("no training data given");
+TrainingData load_runs(const std::vector<std::string>& inputs,
+                       const std::function<void(const std::string&)>& on_file) {
+  if (inputs.empty()) throw std::runtime_error("no full-order runs given");
   std::vector<std::pair<std::string, bool>> files;  // (path, test)
   for (const auto& input : inputs) {
     std::error_code error;
@@ -98,6 +98,12 @@ TrainingData load_training_data(const std::vector<std::string>& inputs,
       require_same_reference(first_X, first_file, set.runs.back(), file);
     }
   }
+  return data;
+}
+
+TrainingData load_training_data(const std::vector<std::string>& inputs,
+                                const std::function<void(const std::string&)>& on_file) {
+  TrainingData data = load_runs(inputs, on_file);
   if (data.train.runs.empty()) throw std::runtime_error("no training runs among the inputs (all are test runs)");
   return data;
 }

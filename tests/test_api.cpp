@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -12,6 +13,8 @@
 #include "model.hpp"
 #include "pushed_block.hpp"
 #include "rollout_batch.hpp"
+#include "rom_file.hpp"
+#include "evaluation.hpp"
 #include "simulate.hpp"
 #include "trainer.hpp"
 #include "training_data.hpp"
@@ -38,11 +41,15 @@ class RolloutBatchApi : public ::testing::Test {
     settings.depth = 3;
     settings.epochs = 30;
     const auto data = load_training_data({(dir_ / "sweep").string()});
-    save_model(model_path(), train_model(data, settings, "", false));
+    Model model = train_model(data, settings, "", false);
+    save_model(unranked_model_path(), model);
+    model.sample_ranking = rank_samples_greedily(model, data, ranked_samples);  // as `mpmrom train` stores it
+    save_model(model_path(), model);
   }
   static void TearDownTestSuite() { fs::remove_all(dir_); }
   static std::string scene_path() { return (dir_ / "scene.toml").string(); }
   static std::string model_path() { return (dir_ / "model.h5").string(); }
+  static std::string unranked_model_path() { return (dir_ / "unranked_model.h5").string(); }
 
   static RomSettings settings() {
     RomSettings s;
@@ -111,6 +118,59 @@ TEST_F(RolloutBatchApi, ParametersOutsideTheTrainingRangeAreWarnedAbout) {
       << outcomes[1].warning;
 }
 
+// Greedy selection is nested (each step adds the point that lowers the projection residual most, given those before):
+// the stored ranking's first k points are the greedy selection of k refitted to the training runs, for every k.
+TEST_F(RolloutBatchApi, StoredSampleRankingIsTheGreedySelection) {
+  Model model = load_model(model_path());
+  const Scene scene = load_scene(scene_path());
+  const auto data = load_training_data({(dir_ / "sweep").string()});
+  ASSERT_EQ(model.sample_ranking.size(), std::min(ranked_samples, model.num_points()));
+  RomSettings s = settings();
+  for (const int k : {1, 5, 8, 20}) {
+    s.samples = k;
+    const auto from_model = select_samples(model, scene, s, nullptr);
+    EXPECT_EQ(from_model, select_samples(model, scene, s, &data)) << k << " samples";
+    EXPECT_EQ(from_model.size(), std::size_t(k));
+  }
+  model.sample_ranking.resize(4);  // fewer ranked points than asked for: refused, naming the remedy
+  try {
+    select_samples(model, scene, s, nullptr);
+    ADD_FAILURE() << "a ranking of 4 points gave " << s.samples << " samples";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("pass --data"), std::string::npos) << e.what();
+  }
+}
+
+// `mpmrom evaluate` against a fresh sweep of new parameter points, all of them marked test: every rollout finds its
+// reference run and the errors are reported under test, while training still needs a training run.
+TEST_F(RolloutBatchApi, EvaluationTakesReferenceRunsOfAnySplit) {
+  const fs::path all_test = dir_ / "sweep_all_test";
+  fs::remove_all(all_test);
+  fs::copy(dir_ / "sweep", all_test, fs::copy_options::recursive);
+  std::ifstream in(all_test / "design.csv");
+  std::string header, line, rows;
+  std::getline(in, header);
+  while (std::getline(in, line)) {
+    const auto train = line.find(",train,");
+    rows += (train == std::string::npos ? line : line.replace(train, 7, ",test,")) + "\n";
+  }
+  in.close();
+  ASSERT_EQ(rows.find("train"), std::string::npos) << rows;
+  std::ofstream(all_test / "design.csv") << header << "\n" << rows;
+  EXPECT_THROW(load_training_data({all_test.string()}), std::runtime_error);
+
+  const auto rom = ReducedModel::load(model_path(), scene_path(), settings());
+  std::vector<RolloutCase> cases;
+  for (const double push : {0.5, 1.0, 1.5}) cases.push_back({{push}, ""});
+  RomFile file;
+  file.result = run_rollouts(rom.model(), scene_path(), rom.parameter_names(), cases, rom.settings(),
+                             rom.hyper_reduction());
+  const auto errors = evaluate_rom(file, rom.model(), load_runs({all_test.string()}));
+  EXPECT_EQ(errors["matched"], 3);
+  EXPECT_TRUE(std::isfinite(errors["test"]["position_error"].get<double>())) << errors.dump();
+  EXPECT_EQ(errors["test"]["position_error"], errors["position_error"]);  // all three are test runs
+}
+
 TEST_F(RolloutBatchApi, BadRequestsAreRefused) {
   const auto rom = ReducedModel::load(model_path(), scene_path(), settings());
   EXPECT_THROW(rom.batch({}), std::runtime_error);          // no rollouts
@@ -118,9 +178,13 @@ TEST_F(RolloutBatchApi, BadRequestsAreRefused) {
   const auto batch = rom.batch({{1.0}});
   EXPECT_THROW(batch.decode(1, rom.reference_points()), std::out_of_range);
   EXPECT_THROW(batch.decode(0, {0.0, 0.0}), std::invalid_argument);  // not (n, 3)
-  RomSettings greedy = settings();
-  greedy.selection = SampleSelection::Greedy;
-  EXPECT_THROW(ReducedModel::load(model_path(), scene_path(), greedy), std::invalid_argument);
+  // The default, greedy selection, takes its samples from the model's ranking: a model without one is refused.
+  try {
+    ReducedModel::load(unranked_model_path(), scene_path(), settings());
+    ADD_FAILURE() << "a model without a sample ranking was accepted for greedy selection";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("stores no sample ranking"), std::string::npos) << e.what();
+  }
   EXPECT_THROW(ReducedModel::load(model_path() + ".missing", scene_path(), settings()), std::runtime_error);
 }
 

@@ -233,6 +233,7 @@ TEST_F(Mpi, SharedRolloutsEqualOneProcessForBothAlgorithms) {
     RomSettings settings;
     settings.method = method;
     settings.samples = 8;
+    settings.selection = SampleSelection::Region;  // the fixture's model ranks no samples (trained by train_model)
     settings.energy_growth = 2;
     const auto samples = select_samples(model, scene, settings, nullptr);
     const auto reduction = build_hyper_reduction(model, scene, settings, samples);
@@ -253,6 +254,7 @@ TEST_F(Mpi, RolloutResumesFromCheckpointsOfDifferentFrames) {
   const Scene scene = load_scene(scene_path());
   RomSettings settings;
   settings.samples = 8;
+  settings.selection = SampleSelection::Region;  // the fixture's model ranks no samples (trained by train_model)
   const auto reduction =
       build_hyper_reduction(model, scene, settings, select_samples(model, scene, settings, nullptr));
   RolloutCheckpoint checkpoint;

@@ -449,6 +449,10 @@ void expect_stopped_by(const RomResult& result, int flag, const std::string& cau
   EXPECT_LT(o.frames_completed, int(result.times.size()));
   EXPECT_GT(o.stopped_at, 0);
   EXPECT_NE(o.message.find(cause), std::string::npos) << o.message;
+  // one line, saying what to change: an option of `mpmrom rollout` in brackets after the cause
+  EXPECT_EQ(o.message.find('\n'), std::string::npos) << o.message;
+  EXPECT_NE(o.message.find(" (", o.message.find(cause) + cause.size()), std::string::npos) << o.message;
+  EXPECT_NE(o.message.find("--"), std::string::npos) << o.message;
   for (const double value : result.xhat) ASSERT_TRUE(std::isfinite(value));
   for (const double value : result.xhatdot) ASSERT_TRUE(std::isfinite(value));
 }

@@ -36,8 +36,8 @@ struct ReferencePoints {
 rom::RolloutLoads loads_for_scene(const Scene& scene, const ReferencePoints& points);
 // The scene's bodies as the reference solid of Algorithm 2.
 rom::ReferenceDomain reference_domain(const Scene& scene);
-// One line naming the causes behind fatal rollout flags.
-std::string describe_flags(int flags);
+// One line naming the causes behind fatal rollout flags; with_remedies adds what to change for each, in brackets.
+std::string describe_flags(int flags, bool with_remedies = false);
 // Sets the scene's horizon to end_time rounded to whole output intervals, keeping the interval (--end-time).
 void apply_horizon(Scene& scene, double end_time);
 
@@ -402,7 +402,7 @@ class BatchStepper final : public BatchStepperBase {
       const bool fatal = flags(b) & rom::fatal_flags;
       if (fatal && !(outcome.flags & rom::fatal_flags)) {
         outcome.stopped_at = time;
-        outcome.message = "stopped at t = " + std::to_string(time) + " s: " + describe_flags(flags(b));
+        outcome.message = "stopped at t = " + std::to_string(time) + " s: " + describe_flags(flags(b), true);
       }
       if (!fatal) outcome.frames_completed = frame_ + 1;
       outcome.flags = flags(b);

@@ -1,0 +1,68 @@
+#!/usr/bin/env bash
+# The measurement behind `mpmrom rollout`'s defaults (docs/rom.md "Defaults"): on a pipeline's model and its test
+# runs, the defaults (no flags) against each alternative of one setting at a time (sample selection, sample count,
+# projection iterations), each rolled out over the test runs and evaluated against their full-order runs. Prints a
+# markdown table on stdout: test position, displacement and velocity errors, stopped rollouts, seconds per simulated
+# second per rollout. Usage: scripts/rollout_defaults.sh [PIPELINE_DIR] [BUILD_DIR]
+# (defaults: out/poke_pipeline from scripts/main.sh, build/double). About 5 minutes on 2 cores for the poke cylinder.
+set -euo pipefail
+here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+dir=${1:-$here/out/poke_pipeline}
+mpmrom=${2:-$here/build/double}/apps/mpmrom
+[ -f "$dir/data/design.csv" ] || { echo "rollout_defaults: error: no $dir/data/design.csv (run scripts/main.sh)" >&2; exit 1; }
+model=$(ls "$dir"/models/*.h5 | head -n 1)
+scene=$(python3 -c 'import json,sys; print(json.load(open(sys.argv[1]))["scene"])' "$dir/report.json" 2> /dev/null ||
+  echo "$here/scenes/poke_cylinder.toml")
+work="$dir/rollout_defaults"
+mkdir -p "$work"
+# The test runs' parameter values (every design column before split).
+python3 - "$dir/data/design.csv" "$work/test.csv" <<'PY'
+import csv, sys
+rows = list(csv.DictReader(open(sys.argv[1])))
+names = [k for k in rows[0] if k not in ("split", "file")]
+with open(sys.argv[2], "w") as f:
+    f.write(",".join(names) + "\n")
+    for row in rows:
+        if row["split"] == "test":
+            f.write(",".join(row[n] for n in names) + "\n")
+PY
+configurations=(
+  "defaults|"
+  "selection region|--selection region"
+  "selection random|--selection random"
+  "8 samples|--samples 8"
+  "30 samples|--samples 30"
+  "projection iterations 0|--projection-iterations 0"
+  "projection iterations 1|--projection-iterations 1"
+  "projection iterations 3|--projection-iterations 3"
+)
+export OMP_PROC_BIND=${OMP_PROC_BIND:-spread} OMP_PLACES=${OMP_PLACES:-threads}
+for entry in "${configurations[@]}"; do
+  name=${entry%%|*}
+  read -r -a flags <<< "${entry#*|}"
+  file="$work/$(tr ' ' '_' <<< "$name")"
+  echo "rollout_defaults: $name ${flags[*]}" >&2
+  status=0
+  "$mpmrom" -q rollout "$model" "$scene" --out "$file.h5" --params "$work/test.csv" "${flags[@]}" --json \
+    > "$file.rollout.json" || status=$?
+  [ "$status" -eq 0 ] || [ "$status" -eq 3 ] || { echo "rollout_defaults: error: $name: exit $status" >&2; exit 1; }
+  "$mpmrom" -q evaluate "$file.h5" "$dir/data" --json > "$file.errors.json"
+done
+python3 - "$work" "$model" "${configurations[@]}" <<'PY'
+import json, os, sys
+work, model, entries = sys.argv[1], sys.argv[2], sys.argv[3:]
+print("Model `%s`, test runs of `%s`:\n" % (os.path.basename(model), os.path.dirname(work)))
+print("| configuration | flags | position | displacement | velocity | stopped | s per simulated s |")
+print("| --- | --- | --- | --- | --- | --- | --- |")
+for entry in entries:
+    name, flags = entry.split("|", 1)
+    base = os.path.join(work, name.replace(" ", "_"))
+    e = json.load(open(base + ".errors.json"))
+    t = json.load(open(base + ".rollout.json"))
+    rollouts = e["rollouts"]
+    simulated = t["simulated_seconds"] if "simulated_seconds" in t else None
+    cost = t["rom_seconds_per_simulated_second"] if "rom_seconds_per_simulated_second" in t else None
+    cells = ["%.3g %%" % (100 * e["test"][m]) for m in ("position_error", "displacement_error", "velocity_error")]
+    print("| %s | `%s` | %s | %d of %d | %s |" % (name, flags or "(none)", " | ".join(cells), e["stopped"], rollouts,
+                                               "%.3g" % cost if cost is not None else "n/a"))
+PY
