@@ -1,5 +1,6 @@
 #include "scene.hpp"
 
+#include "impl/checked_integer.hpp"
 #include "sampling.hpp"
 
 #include <toml++/toml.h>
@@ -40,6 +41,16 @@ class TableReader {
     return to_number(*node, key);
   }
   double required_number(const std::string& key) { return number(key, 0, true); }
+
+  // A count, index or seed: checked to be a whole number in [lo, hi] before it is converted (checked_integer).
+  template <class Integer>
+  Integer integer(const std::string& key, double fallback, double lo, double hi = INFINITY) {
+    return whole<Integer>(number(key, fallback), key, lo, hi);
+  }
+  template <class Integer>
+  Integer whole(double value, const std::string& what, double lo, double hi) const {
+    return impl::checked_integer<Integer>(value, [&] { return "scene " + where_ + ": " + what; }, lo, hi);
+  }
 
   Vec3d vec3(const std::string& key, Vec3d fallback, bool required = false) {
     used_.insert(key);
@@ -284,7 +295,7 @@ Scene build(const std::string& path, const std::string& text, const toml::table&
     const std::string where = path + " [time]";
     TableReader r(top.table("time", true), where, parameters);
     scene.end_time = r.required_number("end_time");
-    scene.num_outputs = static_cast<int>(r.number("outputs", 1));
+    scene.num_outputs = r.integer<int>("outputs", 1, 1);
     scene.cfl = r.number("cfl", 0.3);
     scene.time_step = r.number("dt", 0);
     scene.max_cfl = r.number("max_cfl", 0);
@@ -298,7 +309,6 @@ Scene build(const std::string& path, const std::string& text, const toml::table&
       fail(where, "transfer must be apic or pic, not '" + transfer + "'");
     r.check_all_used();
     if (!(scene.end_time > 0)) fail(where, "end_time must be positive");
-    if (scene.num_outputs < 1) fail(where, "outputs must be at least 1");
     // Above 1 the explicit scheme is beyond its stability limit: allowed for stability studies (docs/stability.md).
     if (!(scene.cfl > 0 && scene.cfl <= 10)) fail(where, "cfl must lie in (0, 10]");
     if (!(scene.time_step >= 0 && std::isfinite(scene.time_step))) fail(where, "dt must be >= 0 (0: from cfl)");
@@ -369,11 +379,9 @@ Scene build(const std::string& path, const std::string& text, const toml::table&
                             r.to_number(*p->get(2), "points")});
       }
     } else {
-      const double count = r.number("count", 0);
+      b.count = r.integer<long>("count", 0, 0, 2e9);
       b.spacing = r.number("spacing", 0);
-      b.seed = static_cast<unsigned>(r.number("seed", 1));
-      if (count < 0 || count != std::floor(count) || count > 2e9) fail(where, "count must be a whole number >= 0");
-      b.count = static_cast<long>(count);
+      b.seed = r.integer<unsigned>("seed", 1, 0);
       if ((b.count > 0) == (b.spacing > 0)) fail(where, "give exactly one of count or spacing (positive)");
       if (b.spacing < 0) fail(where, "spacing must be positive");
     }
@@ -475,10 +483,8 @@ Scene build(const std::string& path, const std::string& text, const toml::table&
     const std::size_t num_runs = scene.design.all_runs().size();
     if (const toml::array* test = r.array("test")) {
       for (const auto& v : *test) {
-        const auto index = v.value<int64_t>();
-        if (!index || *index < 0 || static_cast<std::size_t>(*index) >= num_runs)
-          fail(where, "test must list run indices in [0, " + std::to_string(num_runs) + ")");
-        scene.design.test_runs.push_back(static_cast<int>(*index));
+        const double index = r.to_number(v, "test");
+        scene.design.test_runs.push_back(r.whole<int>(index, "each test run index", 0, double(num_runs) - 1));
       }
     }
     r.check_all_used();

@@ -125,7 +125,7 @@ TEST(Scene, BadInputGivesOneClearLine) {
       {replace(kValid, "magnitude = \"$force\"", "magnitude = \"$forse\""), "unknown parameter '$forse'"},
       {replace(kValid, "spacing = 0.05", "spacing = \"fine\""), "must be a number"},
       {replace(kValid, "[time]", "[time\n"), "scene.toml:"},
-      {replace(kValid, "test = [1]", "test = [2]"), "test must list run indices"},
+      {replace(kValid, "test = [1]", "test = [2]"), "each test run index must be a whole number in [0, 1], not 2"},
       {replace(kValid, "shape = \"box\"", "shape = \"torus\""), "shape must be box, cylinder or sphere"},
   };
   for (const auto& [text, expected] : cases) {
@@ -135,6 +135,42 @@ TEST(Scene, BadInputGivesOneClearLine) {
   }
   EXPECT_NE(error_of(kValid, {"forse=1"}).find("no such parameter"), std::string::npos);
   EXPECT_NE(error_of(kValid, {"force=abc"}).find("not a finite number"), std::string::npos);
+}
+
+// Found by fuzzing: outputs = 2777777777 was converted to int unchecked (undefined behaviour). Every count, index and
+// seed must be a whole number in its field's range before it is converted, however it arrives: a TOML integer, a
+// float, a parameter, or a --set value.
+TEST(Scene, CountsMustBeWholeNumbersInRange) {
+  const std::string with_outputs = replace(kValid, "end_time = 0.1", "end_time = 0.1\noutputs = OUTPUTS");
+  const auto outputs_error = [&](const std::string& outputs, const std::vector<std::string>& overrides = {}) {
+    return error_of(replace(with_outputs, "OUTPUTS", outputs), overrides);
+  };
+  const std::string field = "scene scene.toml [time]: outputs must be a whole number in [1, 2147483647], not ";
+  EXPECT_EQ(outputs_error("2777777777"), field + "2777777777");
+  EXPECT_EQ(outputs_error("2.5"), field + "2.5");
+  EXPECT_EQ(outputs_error("-3"), field + "-3");
+  EXPECT_EQ(outputs_error("0"), field + "0");
+  EXPECT_EQ(outputs_error("1e300"), field + "1e+300");
+  // through a parameter, set in the file or by --set, and through a --set of the entry itself
+  const std::string by_parameter = replace(with_outputs, "force = 2.0", "force = 2.0\nframes = 10");
+  EXPECT_EQ(error_of(replace(by_parameter, "OUTPUTS", "\"$frames\""), {"frames=2.5"}), field + "2.5");
+  EXPECT_EQ(error_of(replace(by_parameter, "OUTPUTS", "\"$frames\""), {"frames=2777777777"}), field + "2777777777");
+  EXPECT_EQ(outputs_error("10", {"time.outputs=2777777777"}), field + "2777777777");
+  EXPECT_EQ(outputs_error("10", {"time.outputs=0.5"}), field + "0.5");
+  // whole numbers arrive as TOML integers, as floats and as parameters alike
+  EXPECT_EQ(parse_scene(replace(with_outputs, "OUTPUTS", "10"), "scene.toml").num_outputs, 10);
+  EXPECT_EQ(parse_scene(replace(with_outputs, "OUTPUTS", "10.0"), "scene.toml").num_outputs, 10);
+  EXPECT_EQ(parse_scene(replace(by_parameter, "OUTPUTS", "\"$frames\""), "scene.toml", {"frames=12"}).num_outputs, 12);
+  EXPECT_EQ(parse_scene(replace(with_outputs, "OUTPUTS", "10"), "scene.toml", {"time.outputs=7"}).num_outputs, 7);
+
+  const std::string count = "scene scene.toml [[body]] 1: count must be a whole number in [0, 2000000000], not ";
+  EXPECT_EQ(error_of(replace(kValid, "spacing = 0.05", "count = 1e19")), count + "1e+19");
+  EXPECT_EQ(error_of(replace(kValid, "spacing = 0.05", "count = 64.5")), count + "64.5");
+  EXPECT_EQ(error_of(kValid, {"body.0.count=-1"}), count + "-1");
+  EXPECT_EQ(error_of(replace(kValid, "spacing = 0.05", "spacing = 0.05\nseed = -1")),
+            "scene scene.toml [[body]] 1: seed must be a whole number in [0, 4294967295], not -1");
+  EXPECT_EQ(error_of(replace(kValid, "test = [1]", "test = [1e30]")),
+            "scene scene.toml [design]: each test run index must be a whole number in [0, 1], not 1e+30");
 }
 
 }  // namespace

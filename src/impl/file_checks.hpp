@@ -3,10 +3,8 @@
 #pragma once
 
 #include <cmath>
-#include <algorithm>
 #include <cstddef>
 #include <functional>
-#include <limits>
 #include <numeric>
 #include <sstream>
 #include <stdexcept>
@@ -14,6 +12,7 @@
 #include <vector>
 
 #include "hdf5_file.hpp"
+#include "impl/checked_integer.hpp"
 
 namespace mpmrom::impl {
 
@@ -68,25 +67,16 @@ void require_positive(const std::string& path, const std::string& what, const T*
   }
 }
 
-// Whole numbers a file stores (read as doubles) as Integer: each must be an integer in [lo, hi] (and within 2^53,
-// where doubles hold every integer), else one line naming the dataset and the entry. Converting a double outside an
-// integer type's range is undefined behaviour: a damaged file must not get that far.
+// Whole numbers a file stores (read as doubles) as Integer, each checked to lie in [lo, hi] (impl::checked_integer):
+// a damaged file must not reach an undefined conversion. The error names the file, the dataset and the entry.
 template <class Integer>
 std::vector<Integer> checked_integers(const std::string& path, const std::string& what,
-                                      const std::vector<double>& values,
-                                      double lo = double(std::numeric_limits<Integer>::lowest()),
-                                      double hi = double(std::numeric_limits<Integer>::max())) {
-  constexpr double exact = 9007199254740992.0;  // 2^53
-  lo = std::max(lo, -exact);
-  hi = std::min(hi, exact);
+                                      const std::vector<double>& values, double lo = -INFINITY,
+                                      double hi = INFINITY) {
   std::vector<Integer> integers(values.size());
-  for (std::size_t i = 0; i < values.size(); ++i) {
-    const double v = values[i];
-    if (!(v >= lo && v <= hi && v == std::floor(v)))
-      bad(path, what + " entry " + std::to_string(i) + " is not an integer in [" + number_string(lo, 17) + ", " +
-                    number_string(hi, 17) + "] (" + number_string(v) + ")");
-    integers[i] = static_cast<Integer>(v);
-  }
+  for (std::size_t i = 0; i < values.size(); ++i)
+    integers[i] = checked_integer<Integer>(
+        values[i], [&] { return path + ": " + what + " entry " + std::to_string(i); }, lo, hi);
   return integers;
 }
 
