@@ -43,13 +43,17 @@ GridGeometry<real_t> grid_for_scene(const Scene& scene) {
   GridGeometry<real_t> grid;
   grid.dx = static_cast<real_t>(scene.dx);
   grid.inv_dx = static_cast<real_t>(1 / scene.dx);
-  double nodes = 1;
+  // Counted in doubles first: an axis of more than 2^31 cells must be refused, not converted to int.
+  double nodes = 1, dims[3];
   for (int d = 0; d < 3; ++d) {
-    grid.origin[d] = static_cast<real_t>(scene.domain.lo[d]);
-    grid.dims[d] = static_cast<int>(std::ceil((scene.domain.hi[d] - scene.domain.lo[d]) / scene.dx - 1e-9)) + 1;
-    nodes *= grid.dims[d];
+    dims[d] = std::ceil((scene.domain.hi[d] - scene.domain.lo[d]) / scene.dx - 1e-9) + 1;
+    nodes *= dims[d];
   }
   if (nodes > 2e9) throw std::runtime_error("the grid would have more than 2e9 nodes; enlarge dx or shrink the domain");
+  for (int d = 0; d < 3; ++d) {
+    grid.origin[d] = static_cast<real_t>(scene.domain.lo[d]);
+    grid.dims[d] = static_cast<int>(dims[d]);
+  }
   return grid;
 }
 

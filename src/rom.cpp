@@ -17,6 +17,7 @@
 #include <unordered_map>
 
 #include "fom.hpp"
+#include "impl/checked_integer.hpp"
 #include "impl/device_data.hpp"
 #include "impl/rom_stepper.hpp"
 #include "kernels/rom/projection.hpp"
@@ -377,7 +378,8 @@ std::vector<std::int64_t> rank_samples_greedily(const Model& model, const Traini
 
 void impl::apply_horizon(Scene& scene, double end_time) {
   const double interval = scene.end_time / scene.num_outputs;
-  scene.num_outputs = int(std::max(1.0, std::round(end_time / interval)));
+  const auto name = [] { return std::string("--end-time, in output intervals of the scene,"); };
+  scene.num_outputs = impl::checked_integer<int>(std::max(1.0, std::round(end_time / interval)), name, 1);
   scene.end_time = scene.num_outputs * interval;  // a whole number of the scene's output intervals
 }
 

@@ -5,6 +5,8 @@
 #include <random>
 #include <stdexcept>
 
+#include "impl/checked_integer.hpp"
+
 namespace mpmrom {
 
 double body_volume(const BodySpec& b) {
@@ -38,8 +40,9 @@ namespace {
 // Visits the lattice points inside the body; returns how many there are.
 template <class Visit>
 long for_each_lattice_point(const BodySpec& b, double s, Visit&& visit) {
+  const auto name = [&] { return "body '" + b.name + "': its half-width in lattice spacings"; };
   int n[3];
-  for (int d = 0; d < 3; ++d) n[d] = static_cast<int>(std::ceil(b.half_extents[d] / s)) + 1;
+  for (int d = 0; d < 3; ++d) n[d] = impl::checked_integer<int>(std::ceil(b.half_extents[d] / s) + 1, name, 1);
   long count = 0;
   for (int i = -n[0]; i < n[0]; ++i)
     for (int j = -n[1]; j < n[1]; ++j)
@@ -98,13 +101,14 @@ std::vector<Vec3d> poisson_disk_points(const BodySpec& b, double radius, unsigne
   // are dropped at the end so the boundary is sampled like the interior.
   const double cell = radius / std::sqrt(3.0);
   Vec3d lo;
-  int n[3];
+  double cells = 1, cells_per_axis[3];  // counted in doubles first: converted to int only once known to fit
   for (int d = 0; d < 3; ++d) {
     lo[d] = b.center[d] - b.half_extents[d];
-    n[d] = static_cast<int>(std::ceil(2 * b.half_extents[d] / cell)) + 1;
+    cells_per_axis[d] = std::ceil(2 * b.half_extents[d] / cell) + 1;
+    cells *= cells_per_axis[d];
   }
-  const double cells = double(n[0]) * n[1] * n[2];
   if (cells > 4e8) throw std::runtime_error("Poisson-disk radius too small for the body (over 4e8 cells)");
+  const int n[3] = {int(cells_per_axis[0]), int(cells_per_axis[1]), int(cells_per_axis[2])};
   std::vector<int> grid(static_cast<std::size_t>(cells), -1);
   auto cell_of = [&](const Vec3d& p, int c[3]) {
     for (int d = 0; d < 3; ++d) c[d] = std::min(n[d] - 1, std::max(0, int((p[d] - lo[d]) / cell)));

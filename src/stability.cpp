@@ -146,9 +146,10 @@ class Study {
   }
 
   std::vector<std::string> horizon_overrides(double horizon) const {
-    const int outputs = int(std::lround(base_.num_outputs * horizon));
+    // left a double: the scene parser checks the count (a whole number in range) before converting it
+    const double outputs = std::round(base_.num_outputs * horizon);
     return {"time.end_time=" + number(base_.end_time * outputs / base_.num_outputs, 17),
-            "time.outputs=" + std::to_string(outputs)};
+            "time.outputs=" + number(outputs, 17)};
   }
 
   const FomRun& reference(const std::string& scene_path, const std::vector<double>& values) {

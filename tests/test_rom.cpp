@@ -439,6 +439,20 @@ TEST(RomHorizon, ShorterHorizonIsAPrefixOfTheFullRollout) {
   }
 }
 
+// A horizon of more output intervals than an int holds is refused, not converted (undefined behaviour).
+TEST(RomHorizon, HorizonBeyondTheIntRangeIsRefused) {
+  Scene scene = affine_scene({0, 0, -9.81}, {0.5, -1.0, 1.5});
+  const double interval = scene.end_time / scene.num_outputs;
+  try {
+    impl::apply_horizon(scene, 3e9 * interval);
+    ADD_FAILURE() << "a horizon of 3e9 output intervals was accepted";
+  } catch (const std::runtime_error& error) {
+    EXPECT_EQ(std::string(error.what()),
+              "--end-time, in output intervals of the scene, must be a whole number in [1, 2147483647], not "
+              "3000000000");
+  }
+}
+
 // ---------------------------------------------------------------------------------------------------------------
 // Detectors (docs/stability.md): each constructed case stops the rollout before its end with the documented cause;
 // the stopped rollout keeps its last good (finite) state and reports where it stopped.

@@ -29,6 +29,29 @@ TEST(Sampling, LatticeCountReproducesThePapersCylinder) {
   for (const auto& p : points) EXPECT_TRUE(body_contains(b, p));
 }
 
+// A needle far longer than the spacing: its lattice spans more than an int's range of points along its length,
+// refused before any conversion (its volume alone, a fraction of a point, would have let it through).
+TEST(Sampling, LatticeSpanningMoreThanAnIntIsRefused) {
+  BodySpec needle;
+  needle.name = "needle";
+  needle.shape = ShapeKind::Box;
+  needle.half_extents = {8589934592.0, 1e-9, 1e-9};  // 2^33
+  try {
+    (void)lattice_points(needle, 1.0);
+    ADD_FAILURE() << "a lattice of 2^34 points along one axis was accepted";
+  } catch (const std::runtime_error& error) {
+    EXPECT_EQ(std::string(error.what()),
+              "body 'needle': its half-width in lattice spacings must be a whole number in [1, 2147483647], not "
+              "8589934593");
+  }
+  try {
+    (void)poisson_disk_points(needle, 1.0, 1);
+    ADD_FAILURE() << "a Poisson-disk grid of 3e10 cells along one axis was accepted";
+  } catch (const std::runtime_error& error) {
+    EXPECT_NE(std::string(error.what()).find("over 4e8 cells"), std::string::npos) << error.what();
+  }
+}
+
 TEST(Sampling, LatticeIsSymmetricAboutTheCenter) {
   const BodySpec b = poke_cylinder();
   const auto points = lattice_points(b, 0.02);

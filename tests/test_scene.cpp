@@ -3,6 +3,7 @@
 #include <stdexcept>
 
 #include "backends.hpp"
+#include "fom.hpp"
 #include "sampling.hpp"
 #include "scene.hpp"
 
@@ -171,6 +172,18 @@ TEST(Scene, CountsMustBeWholeNumbersInRange) {
             "scene scene.toml [[body]] 1: seed must be a whole number in [0, 4294967295], not -1");
   EXPECT_EQ(error_of(replace(kValid, "test = [1]", "test = [1e30]")),
             "scene scene.toml [design]: each test run index must be a whole number in [0, 1], not 1e+30");
+}
+
+// Sizes derived from a scene's numbers are counted in doubles and refused before any int conversion: 1e10 cells
+// along x alone would overflow it.
+TEST(Scene, GridOfMoreNodesThanAnIntHoldsIsRefused) {
+  const Scene scene = parse_scene(kValid, "scene.toml", {"grid.hi=[1e9, 1.0, 1.0]"});
+  try {
+    (void)grid_for_scene(scene);
+    ADD_FAILURE() << "a grid of 1e10 cells along x was accepted";
+  } catch (const std::runtime_error& error) {
+    EXPECT_EQ(std::string(error.what()), "the grid would have more than 2e9 nodes; enlarge dx or shrink the domain");
+  }
 }
 
 }  // namespace
