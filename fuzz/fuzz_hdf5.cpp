@@ -17,10 +17,20 @@
 
 namespace {
 
+// Opens the file at descriptor 1000 or the first free one above: the number is part of the loaders' path
+// (/proc/self/fd/N) and must not depend on the descriptors the process inherited.
+int open_high(const std::string& name) {
+  const int fd = ::open(name.c_str(), O_RDWR | O_CREAT | O_TRUNC, 0600);
+  if (fd < 0) return fd;
+  const int high = ::fcntl(fd, F_DUPFD, 1000);
+  ::close(fd);
+  return high;
+}
+
 // One file per fuzzing process (parallel -jobs share the directory), removed at exit.
 struct InputFile {
   std::string name = "/tmp/mpmrom_fuzz_" + std::to_string(::getpid()) + ".h5";
-  int fd = ::open(name.c_str(), O_RDWR | O_CREAT | O_TRUNC, 0600);
+  int fd = open_high(name);
   ~InputFile() { std::remove(name.c_str()); }
 };
 
