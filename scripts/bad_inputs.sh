@@ -49,6 +49,10 @@ row "scene: body outside the grid" "$mpmrom" -q simulate outside.toml --out out.
 scene_with 's/^youngs_modulus = .*$/youngs_modulus = nan/' nan.toml
 row "scene: NaN material constant" "$mpmrom" -q simulate nan.toml --out out.h5
 row "scene: NaN in --set" "$mpmrom" -q simulate "$seed" --set push=inf --out out.h5
+scene_with 's/^outputs = 2$/outputs = 2777777777/' outputs.toml
+row "scene: a count beyond int's range (outputs = 2777777777)" "$mpmrom" -q simulate outputs.toml --out out.h5
+row "scene: a count that is not whole (--set time.outputs=2.5)" \
+  "$mpmrom" -q simulate "$seed" --set time.outputs=2.5 --out out.h5
 scene_with 's/^spacing = 0.05$/spacing = 0.00001/' huge.toml
 row "scene: 8e12 material points (too little memory)" "$mpmrom" -q simulate huge.toml --out out.h5
 scene_with 's/^lo = .*$/lo = [-6.0, -6.0, -6.0]/; s/^hi = .*$/hi = [6.0, 6.0, 6.0]/; s/^dx = 0.1$/dx = 0.01/' biggrid.toml
