@@ -31,7 +31,8 @@ for config in $configs; do
   : > "$records"
   for batch in $batches; do
     python3 "$here/perf/design_params.py" "$scene" "$batch" "$work/params.csv"
-    if ! ${TIMEOUT:+timeout "$TIMEOUT"} "$mpmrom" -q rollout "$model" "$scene" --out "$work/rom.h5" --method "$method" --samples "$n" \
+    # region selection, as in the committed records: a step's cost depends on how many samples, not which
+    if ! ${TIMEOUT:+timeout "$TIMEOUT"} "$mpmrom" -q rollout "$model" "$scene" --out "$work/rom.h5" --method "$method" --samples "$n" --selection region \
         --params "$work/params.csv" --end-time "$end_time" --json >> "$records" 2> "$work/err"; then
       [ -s "$work/err" ] || echo "no result within ${TIMEOUT:-?} s" > "$work/err"
       echo "batch $batch ($method, $n samples) failed: $(tail -1 "$work/err")" >&2

@@ -68,7 +68,8 @@ for config in $configs; do
       set -- $run
       python3 "$here/perf/design_params.py" "$scene" "$2" "$work/params.csv"
       status=0
-      on "$1" rollout "$model" "$scene" --out "$work/rom.h5" --method "$method" --samples "$n" \
+      # region selection, as in the committed records: a step's cost depends on how many samples, not which
+      on "$1" rollout "$model" "$scene" --out "$work/rom.h5" --method "$method" --samples "$n" --selection region \
          --params "$work/params.csv" --end-time "$interval" --json > "$work/record.json" 2> "$work/err" || status=$?
       # exit 3: some rollouts stopped (the record is written all the same)
       if [ "$status" -eq 0 ] || { [ "$status" -eq 3 ] && [ -s "$work/record.json" ]; }; then

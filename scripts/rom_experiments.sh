@@ -4,8 +4,9 @@
 #   poke  : Algorithm 1 and 2, all points and 15 greedy samples (paper: r = 5, 15 samples, 0.50 % / 0.55 %);
 #   table2: shear_cylinder_17, Algorithm 1 and 2, all 17 points and 6 greedy samples (paper Table 2).
 # Usage: scripts/rom_experiments.sh poke|table2 [BUILD_DIR] [OUT_DIR]
-# Needs the sweep and model first: poke from scripts/main.sh (out/poke_cylinder, its model.h5), table2 from
-# scripts/table1_shear.sh (out/table1/shear17 and its lambda1 = lambda2 = 1 model).
+# Needs the sweep and model first: poke in out/poke_cylinder (`mpmrom sweep` of scenes/poke_cylinder.toml and
+# `mpmrom train` into its model.h5; MODEL=FILE picks another), table2 from scripts/table1_shear.sh (out/table1/shear17
+# and its lambda1 = lambda2 = 1 model).
 set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 experiment=${1:?usage: rom_experiments.sh poke|table2 [BUILD_DIR] [OUT_DIR]}
