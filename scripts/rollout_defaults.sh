@@ -4,15 +4,17 @@
 # projection iterations), each rolled out over the test runs and evaluated against their full-order runs. Prints a
 # markdown table on stdout: test position, displacement and velocity errors, stopped rollouts, seconds per simulated
 # second per rollout. Usage: scripts/rollout_defaults.sh [PIPELINE_DIR] [BUILD_DIR]
-# (defaults: out/poke_pipeline from scripts/main.sh, build/double). About 5 minutes on 2 cores for the poke cylinder.
+# (defaults: out/poke_pipeline from scripts/main.sh, build/double; SCENE=FILE if the scene is not scenes/NAME.toml). About 5 minutes on 2 cores for the poke cylinder.
 set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 dir=${1:-$here/out/poke_pipeline}
 mpmrom=${2:-$here/build/double}/apps/mpmrom
 [ -f "$dir/data/design.csv" ] || { echo "rollout_defaults: error: no $dir/data/design.csv (run scripts/main.sh)" >&2; exit 1; }
 model=$(ls "$dir"/models/*.h5 | head -n 1)
-scene=$(python3 -c 'import json,sys; print(json.load(open(sys.argv[1]))["scene"])' "$dir/report.json" 2> /dev/null ||
-  echo "$here/scenes/poke_cylinder.toml")
+# the scene the pipeline ran (report.json names it), from scenes/ unless SCENE=FILE says otherwise
+name=$(python3 -c 'import json,sys; print(json.load(open(sys.argv[1]))["scene"])' "$dir/report.json")
+scene=${SCENE:-$here/scenes/$name.toml}
+[ -f "$scene" ] || { echo "rollout_defaults: error: no scene file $scene (set SCENE=FILE)" >&2; exit 1; }
 work="$dir/rollout_defaults"
 mkdir -p "$work"
 # The test runs' parameter values (every design column before split).
