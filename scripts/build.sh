@@ -22,6 +22,6 @@ build_dir="$here/build/$variant"
 echo "build: configuring $build_dir (Kokkos in $kokkos_root)"
 cmake -S "$here" -B "$build_dir" -DKokkos_ROOT="$kokkos_root" -DMPMROM_PRECISION="$precision" \
       -DMPMROM_ENABLE_MPI="$mpi" "$@" || { echo "build: error: CMake could not configure $build_dir"; exit 1; }
-echo "build: compiling $build_dir on $(nproc) cores (about 10 minutes from scratch on 2 cores)"
+echo "build: compiling $build_dir on $(nproc) cores (about 2 minutes from scratch on 2 cores)"
 cmake --build "$build_dir" --parallel "$(nproc)" || { echo "build: error: compiling $build_dir failed"; exit 1; }
 echo "$build_dir" >&3

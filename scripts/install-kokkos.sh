@@ -24,7 +24,7 @@ fi
 
 work=$(mktemp -d "${TMPDIR:-/tmp}/mpmrom-kokkos.XXXXXX")
 trap 'rm -rf "$work" "${staging:-}"' EXIT
-echo "install-kokkos: building Kokkos (OpenMP) once into $prefix, about 5 minutes on 2 cores (work in $work)"
+echo "install-kokkos: building Kokkos (OpenMP) once into $prefix, about 1 minute on 2 cores (work in $work)"
 
 # deb-src entries mirroring every configured deb entry, in both apt source formats.
 mkdir -p "$work/apt/parts" "$work/apt/lists/partial"
