@@ -11,9 +11,9 @@
 #include <exception>
 #include <string>
 
-#include "model.hpp"
-#include "rom_file.hpp"
-#include "snapshot.hpp"
+#include "mpmrom/model.hpp"
+#include "rom/rom_file.hpp"
+#include "mpmrom/snapshot.hpp"
 
 namespace {
 

@@ -4,8 +4,8 @@
 #include <exception>
 #include <string>
 
-#include "scene.hpp"
-#include "simulate.hpp"
+#include "mpmrom/scene.hpp"
+#include "snapshots/simulate.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string text(reinterpret_cast<const char*>(data), size);

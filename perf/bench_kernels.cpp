@@ -2,9 +2,9 @@
 //   build/perf/bench_kernels --benchmark_counters_tabular=true
 #include <benchmark/benchmark.h>
 
-#include "kernels/bspline.hpp"
-#include "mpmrom_config.hpp"
-#include "runtime.hpp"
+#include "mpm/bspline.hpp"
+#include "mpmrom/mpmrom_config.hpp"
+#include "mpmrom/runtime.hpp"
 
 namespace {
 

@@ -9,7 +9,7 @@
 #include <random>
 #include <vector>
 
-#include "mpmrom_config.hpp"
+#include "mpmrom/mpmrom_config.hpp"
 
 namespace mpmrom::test {
 

@@ -10,14 +10,14 @@
 #include <string>
 #include <vector>
 
-#include "model.hpp"
+#include "mpmrom/model.hpp"
 #include "pushed_block.hpp"
-#include "rollout_batch.hpp"
-#include "rom_file.hpp"
-#include "evaluation.hpp"
-#include "simulate.hpp"
-#include "trainer.hpp"
-#include "training_data.hpp"
+#include "mpmrom/rollout_batch.hpp"
+#include "rom/rom_file.hpp"
+#include "analysis/evaluation.hpp"
+#include "snapshots/simulate.hpp"
+#include "manifold/trainer.hpp"
+#include "mpmrom/training_data.hpp"
 
 namespace mpmrom::test {
 namespace {

@@ -2,7 +2,7 @@
 #include <cmath>
 
 #include "backends.hpp"
-#include "kernels/bspline.hpp"
+#include "mpm/bspline.hpp"
 
 namespace mpmrom::test {
 namespace {

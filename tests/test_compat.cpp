@@ -3,7 +3,7 @@
 #include <limits>
 
 #include "backends.hpp"
-#include "kernels/compat/kokkos_compat.hpp"
+#include "core/kokkos_compat.hpp"
 
 namespace mpmrom::test {
 namespace {

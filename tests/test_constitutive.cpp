@@ -9,8 +9,8 @@
 #include <vector>
 
 #include "backends.hpp"
-#include "kernels/constitutive.hpp"
-#include "kernels/svd3.hpp"
+#include "mpm/constitutive.hpp"
+#include "core/math/svd3.hpp"
 
 namespace mpmrom::test {
 namespace {

@@ -4,7 +4,7 @@
 #include <stdexcept>
 
 #include "backends.hpp"
-#include "evaluation.hpp"
+#include "analysis/evaluation.hpp"
 
 namespace mpmrom::test {
 namespace {

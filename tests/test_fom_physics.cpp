@@ -5,9 +5,9 @@
 #include <vector>
 
 #include "backends.hpp"
-#include "fom.hpp"
+#include "fom/fom.hpp"
 #include "pushed_block.hpp"
-#include "sampling.hpp"
+#include "scene/sampling.hpp"
 
 namespace mpmrom::test {
 namespace {

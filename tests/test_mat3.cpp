@@ -2,7 +2,7 @@
 #include <cmath>
 
 #include "backends.hpp"
-#include "kernels/mat3.hpp"
+#include "core/math/mat3.hpp"
 
 namespace mpmrom::test {
 namespace {

@@ -1,4 +1,4 @@
-// The deformation-map network (kernels/nn/): every Jacobian of the fused evaluation and every gradient of loss (7)
+// The deformation-map network (src/manifold/nn/): every Jacobian of the fused evaluation and every gradient of loss (7)
 // against central finite differences, on every backend. The finite-difference checks run in double whatever the
 // build's precision (the kernels are templates on the scalar type), so the tolerances stay tight; a separate check
 // compares the float kernels with the double ones.
@@ -9,10 +9,10 @@
 #include <vector>
 
 #include "backends.hpp"
-#include "kernels/nn/mlp.hpp"
-#include "kernels/nn/mlp_kinematics.hpp"
-#include "kernels/nn/mlp_team.hpp"
-#include "kernels/nn/mlp_train.hpp"
+#include "manifold/nn/mlp.hpp"
+#include "manifold/nn/mlp_kinematics.hpp"
+#include "manifold/nn/mlp_team.hpp"
+#include "manifold/nn/mlp_train.hpp"
 
 namespace {
 

@@ -17,16 +17,16 @@
 #include <string>
 #include <vector>
 
-#include "model.hpp"
-#include "mpmrom_config.hpp"
-#include "parallel.hpp"
+#include "mpmrom/model.hpp"
+#include "mpmrom/mpmrom_config.hpp"
+#include "core/parallel.hpp"
 #include "pushed_block.hpp"
-#include "rom.hpp"
-#include "fom.hpp"
-#include "simulate.hpp"
-#include "snapshot.hpp"
-#include "trainer.hpp"
-#include "training_data.hpp"
+#include "mpmrom/rom.hpp"
+#include "fom/fom.hpp"
+#include "snapshots/simulate.hpp"
+#include "mpmrom/snapshot.hpp"
+#include "manifold/trainer.hpp"
+#include "mpmrom/training_data.hpp"
 
 namespace mpmrom::test {
 namespace {

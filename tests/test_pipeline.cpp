@@ -6,9 +6,9 @@
 #include <limits>
 
 #include "backends.hpp"
-#include "charts.hpp"
-#include "pipeline.hpp"
-#include "scene.hpp"
+#include "studies/charts.hpp"
+#include "studies/pipeline.hpp"
+#include "mpmrom/scene.hpp"
 
 namespace mpmrom::test {
 namespace {

@@ -19,10 +19,10 @@
 #include <thread>
 #include <vector>
 
-#include "model.hpp"
+#include "mpmrom/model.hpp"
 #include "pushed_block.hpp"
-#include "rom_file.hpp"
-#include "snapshot.hpp"
+#include "rom/rom_file.hpp"
+#include "mpmrom/snapshot.hpp"
 
 extern char** environ;
 

@@ -8,13 +8,13 @@
 #include <vector>
 
 #include "backends.hpp"
-#include "fom.hpp"
-#include "impl/rom_stepper.hpp"
-#include "kernels/nn/mlp_kinematics.hpp"
-#include "kernels/rom/inversion.hpp"
-#include "kernels/rom/manifold.hpp"
-#include "kernels/rom/projection.hpp"
-#include "sampling.hpp"
+#include "fom/fom.hpp"
+#include "rom/detail/rom_stepper.hpp"
+#include "manifold/nn/mlp_kinematics.hpp"
+#include "rom/kernels/inversion.hpp"
+#include "rom/kernels/manifold.hpp"
+#include "rom/kernels/projection.hpp"
+#include "scene/sampling.hpp"
 
 namespace mpmrom::test {
 namespace {

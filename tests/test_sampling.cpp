@@ -2,7 +2,7 @@
 #include <cmath>
 
 #include "backends.hpp"
-#include "sampling.hpp"
+#include "scene/sampling.hpp"
 
 namespace mpmrom::test {
 namespace {

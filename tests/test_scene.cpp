@@ -3,9 +3,9 @@
 #include <stdexcept>
 
 #include "backends.hpp"
-#include "fom.hpp"
-#include "sampling.hpp"
-#include "scene.hpp"
+#include "fom/fom.hpp"
+#include "scene/sampling.hpp"
+#include "mpmrom/scene.hpp"
 
 namespace mpmrom::test {
 namespace {

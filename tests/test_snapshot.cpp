@@ -9,12 +9,12 @@
 #include <random>
 #include <sstream>
 
-#include "hdf5_file.hpp"
-#include "model.hpp"
-#include "mpmrom_config.hpp"
-#include "rom_file.hpp"
-#include "snapshot.hpp"
-#include "upgrade.hpp"
+#include "io/hdf5_file.hpp"
+#include "mpmrom/model.hpp"
+#include "mpmrom/mpmrom_config.hpp"
+#include "rom/rom_file.hpp"
+#include "mpmrom/snapshot.hpp"
+#include "analysis/upgrade.hpp"
 
 namespace mpmrom::test {
 namespace {

@@ -12,11 +12,11 @@
 #include <optional>
 #include <string>
 
-#include "fom.hpp"
-#include "hdf5_file.hpp"
-#include "simulate.hpp"
-#include "snapshot.hpp"
-#include "stability.hpp"
+#include "fom/fom.hpp"
+#include "io/hdf5_file.hpp"
+#include "snapshots/simulate.hpp"
+#include "mpmrom/snapshot.hpp"
+#include "studies/stability.hpp"
 
 #include <unistd.h>
 

@@ -9,9 +9,9 @@
 #include <string>
 #include <unistd.h>
 
-#include "hdf5_file.hpp"
-#include "model.hpp"
-#include "trainer.hpp"
+#include "io/hdf5_file.hpp"
+#include "mpmrom/model.hpp"
+#include "manifold/trainer.hpp"
 
 namespace {
 

@@ -4,9 +4,9 @@
 #include <cmath>
 
 #include "backends.hpp"
-#include "kernels/g2p.hpp"
-#include "kernels/grid_update.hpp"
-#include "kernels/p2g.hpp"
+#include "mpm/g2p.hpp"
+#include "mpm/grid_update.hpp"
+#include "mpm/p2g.hpp"
 
 namespace mpmrom::test {
 namespace {

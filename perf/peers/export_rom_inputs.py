@@ -6,7 +6,7 @@ Usage: export_rom_inputs.py MODEL.h5 ROM.h5 SCENE.toml OUT.npz
 MODEL.h5 is the trained network (docs/model_format.md), ROM.h5 an `mpmrom rollout` output of that model on SCENE.toml
 (docs/rom.md: its /hyper_reduction sets, initial latent states, parameters and settings). The peer machine needs only
 numpy and torch, so every HDF5 and TOML read happens here. The scene is resolved per rollout with that rollout's
-parameter values, exactly as mpmrom's scene parser does it (src/scene.cpp); the ROM file's latent trajectories are
+parameter values, exactly as mpmrom's scene parser does it (src/scene/scene.cpp); the ROM file's latent trajectories are
 stored too, as the reference for `rom_step_torch.py --validate`.
 """
 import argparse
@@ -18,12 +18,12 @@ import tomllib
 import h5py
 import numpy as np
 
-CONTACT = {"sticky": 0, "slip": 1, "separate": 2}  # kernels/grid_update.hpp Contact
-ELASTIC = {"neo_hookean": 0, "fixed_corotated": 1}  # kernels/constitutive.hpp ElasticModel
+CONTACT = {"sticky": 0, "slip": 1, "separate": 2}  # src/mpm/grid_update.hpp Contact
+ELASTIC = {"neo_hookean": 0, "fixed_corotated": 1}  # src/mpm/constitutive.hpp ElasticModel
 
 
 def number(value, parameters):
-    """A scene number, or a "$name" reference to a parameter (src/scene.cpp TableReader::to_number)."""
+    """A scene number, or a "$name" reference to a parameter (src/scene/scene.cpp TableReader::to_number)."""
     if isinstance(value, str) and value.startswith("$"):
         return float(parameters[value[1:]])
     return float(value)
@@ -34,7 +34,7 @@ def vec3(table, key, parameters, default=(0.0, 0.0, 0.0)):
 
 
 def resolved_loads(scene, parameters, X, mass):
-    """One rollout's loads as src/rom.cpp loads_for_scene builds them: each force as force per unit of the mass the
+    """One rollout's loads as src/rom/rom.cpp loads_for_scene builds them: each force as force per unit of the mass the
     model's points hold in its region (float64 throughout, as mpmrom's double build)."""
     forces = []
     for f in scene.get("force", []):
@@ -111,7 +111,7 @@ def main():
               file=sys.stderr)
     scene = tomllib.loads(scene_bytes.decode())
 
-    # Per rollout: [parameters] defaults overridden by the rollout's values (src/scene.cpp parse). A batch shares
+    # Per rollout: [parameters] defaults overridden by the rollout's values (src/scene/scene.cpp parse). A batch shares
     # grid, material and times (mpmrom refuses one that does not); they are read with the first rollout's values.
     per_rollout = []
     for row in values:
@@ -126,11 +126,11 @@ def main():
     material = scene["material"]
     E, nu = number(material["youngs_modulus"], first), number(material["poisson_ratio"], first)
     density = number(material["density"], first)
-    mu = E / (2 * (1 + nu))  # kernels/constitutive.hpp elastic_material, same operation order
+    mu = E / (2 * (1 + nu))  # src/mpm/constitutive.hpp elastic_material, same operation order
     lam = E * nu / ((1 + nu) * (1 - 2 * nu))
     grid = scene["grid"]
     lo, hi, dx = np.array(vec3(grid, "lo", first)), np.array(vec3(grid, "hi", first)), number(grid["dx"], first)
-    dims = np.array([math.ceil((hi[d] - lo[d]) / dx - 1e-9) + 1 for d in range(3)])  # src/fom.cpp grid_for_scene
+    dims = np.array([math.ceil((hi[d] - lo[d]) / dx - 1e-9) + 1 for d in range(3)])  # src/fom/fom.cpp grid_for_scene
     time = scene["time"]
     ground = scene.get("ground")
 

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """PyTorch peer of mpmrom's reduced-order batch step: Algorithm 1 (material-point-centric) with hyper-reduction.
 
-The same step as src/impl/rom_stepper.hpp step_batch with `--method point`, written the way a PyTorch user of the
+The same step as src/rom/detail/rom_stepper.hpp step_batch with `--method point`, written the way a PyTorch user of the
 paper's network would write it: an nn.Sequential MLP, torch.func (jacfwd, jvp, jacrev, vmap) for F = dg/dX, its rate
 and dg/dxhat, batched tensors over (rollouts, points), index_add_ for the particle-to-grid transfer and
 torch.linalg.cholesky for the normal equations. No custom kernels. Inputs come from export_rom_inputs.py (numpy and
@@ -22,8 +22,8 @@ import numpy as np
 import torch
 from torch.func import jacfwd, jacrev, jvp, vmap
 
-STICKY, SLIP, SEPARATE = 0, 1, 2  # kernels/grid_update.hpp Contact
-NEO_HOOKEAN = 0                   # kernels/constitutive.hpp ElasticModel (else fixed corotated)
+STICKY, SLIP, SEPARATE = 0, 1, 2  # src/mpm/grid_update.hpp Contact
+NEO_HOOKEAN = 0                   # src/mpm/constitutive.hpp ElasticModel (else fixed corotated)
 STENCIL = torch.tensor(list(itertools.product(range(3), repeat=3)))  # (27, 3): the quadratic B-spline's nodes
 
 
@@ -142,7 +142,7 @@ class RomBatch:
         return R
 
     def contact(self, v, kind, axis, sign, mask):
-        """kernels/grid_update.hpp apply_contact on the nodes in mask."""
+        """src/mpm/grid_update.hpp apply_contact on the nodes in mask."""
         if kind == STICKY:
             return torch.where(mask[..., None], 0.0, v)
         va = v[..., axis]
@@ -150,7 +150,7 @@ class RomBatch:
         return torch.cat([v[..., :axis], torch.where(blocked, 0.0, va)[..., None], v[..., axis + 1:]], dim=-1)
 
     def constrained(self, v, t):
-        """kernels/grid_update.hpp constrained_node_velocity: walls, ground, then the active Dirichlet regions."""
+        """src/mpm/grid_update.hpp constrained_node_velocity: walls, ground, then the active Dirichlet regions."""
         for d in range(3):
             v = self.contact(v, self.walls, d, 1, self.wall_lower[:, d])
             v = self.contact(v, self.walls, d, -1, self.wall_upper[:, d])
@@ -172,7 +172,7 @@ class RomBatch:
     def step(self, xhat, xhatdot, t, dt):
         """One step of every rollout; returns xhat, xhatdot at t + dt and the fastest sample speed (a 0-d tensor)."""
         B, S, I = self.B, self.S, self.I
-        # Sources (kernels/rom/sources.hpp MaterialPointSources): kinematics, momentum with the external impulse,
+        # Sources (src/rom/kernels/sources.hpp MaterialPointSources): kinematics, momentum with the external impulse,
         # APIC's m Fdot F^-1 and -dt V tau / J with V = V0 J.
         x, F, v, Fdot = self.kinematics(self.X, xhat, xhatdot)  # (B, K, 3), (B, K, 3, 3), ...
         J = torch.linalg.det(F)
@@ -182,7 +182,7 @@ class RomBatch:
         affine = self.mass[:, None, None] * torch.linalg.solve(F, Fdot, left=False) if self.apic else None
         stress = (-dt * self.volume)[:, None, None] * self.kirchhoff_stress(F, J)
 
-        # Each source's 27 stencil nodes, weights and weight gradients (kernels/bspline.hpp quadratic_stencil).
+        # Each source's 27 stencil nodes, weights and weight gradients (src/mpm/bspline.hpp quadratic_stencil).
         xi = (x - self.origin) * self.inv_dx
         base = torch.floor(xi - 0.5)
         f = xi - base
@@ -197,7 +197,7 @@ class RomBatch:
         flat = (node[..., 0] * self.dims[1] + node[..., 1]) * self.dims[2] + node[..., 2]
         slot = torch.where(in_grid, self.node_slot[flat.clamp(0, len(self.node_slot) - 1)], -1)
 
-        # P2G onto I (kernels/rom/transfer.hpp GatherNodeVelocities) as a scatter over the allowed (node, source)
+        # P2G onto I (src/rom/kernels/transfer.hpp GatherNodeVelocities) as a scatter over the allowed (node, source)
         # pairs: the same terms as mpmrom's gather, summed in another order.
         target = torch.where(slot >= 0, slot, I)
         target = torch.where(self.feeds[torch.arange(self.X.shape[0], device=self.device)[:, None], target], target, I)
@@ -224,7 +224,7 @@ class RomBatch:
         gathered = node_v[each, torch.where(sample_slot >= 0, sample_slot, I)]  # (B, S, 27, 3)
         sample_v = torch.where(complete, (weight[:, :S, :, None] * gathered).sum(2), 0.0)
 
-        # Projection (kernels/rom/projection.hpp), then re-projection with dg/dxhat at the trial state (docs/rom.md).
+        # Projection (src/rom/kernels/projection.hpp), then re-projection with dg/dxhat at the trial state (docs/rom.md).
         X_samples = self.X[:S]
         xhat_next, xhatdot_next = self.project(self.tangent(X_samples, xhat), sample_v, xhat, dt)
         for _ in range(self.iterations):

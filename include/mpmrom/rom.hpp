@@ -1,0 +1,175 @@
+// The reduced-order model (paper, "Dynamics: velocity projection"): a batch of rollouts, each with its own parameter
+// values, advanced together on the default Kokkos execution space with Algorithm 1 (material-point-centric) or
+// Algorithm 2 (sample-node-centric), with hyper-reduction (a few sample points) or without (all points).
+// docs/rom.md describes the method, the precomputed sets and the failure policies.
+#pragma once
+
+#include <nlohmann/json.hpp>
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "mpmrom/model.hpp"
+#include "mpmrom/scene.hpp"
+#include "mpmrom/training_data.hpp"
+
+namespace mpmrom {
+namespace parallel {
+class Communicator;
+}
+
+enum class RomMethod { MaterialPoint, SampleNode };  // Algorithm 1, Algorithm 2
+enum class SampleSelection { Region, Random, Greedy };
+
+RomMethod rom_method_from_string(const std::string& name);  // "point" or "node"
+std::string to_string(RomMethod method);
+SampleSelection sample_selection_from_string(const std::string& name);  // "region", "random" or "greedy"
+std::string to_string(SampleSelection selection);
+
+struct RomSettings {
+  RomMethod method = RomMethod::MaterialPoint;
+  int samples = 15;  // sample material points; 0: every point (no hyper-reduction)
+  // Greedy: the lowest measured error of the three (docs/rom.md "Defaults"); from the model's stored ranking.
+  SampleSelection selection = SampleSelection::Greedy;
+  std::uint64_t seed = 1;          // random selection
+  double cfl = 0;                  // time step = cfl dx / (wave speed + fastest sample); 0: the scene's cfl
+  double envelope_margin = 0.25;   // cells of slack around the training motion when building the node set
+  int quadrature_order = 2;        // Algorithm 2: Gauss points per axis in each dual cell (1-3)
+  double newton_tolerance = 1e-4;  // Algorithm 2: inversion residual, in cells
+  int newton_iterations = 20;
+  // Re-projections with dg/dxhat at the trial next state (0: the paper's dg/dxhat at xhat(t_n) only).
+  int projection_iterations = 2;
+  double max_condition = 0;        // regularise the normal equations above this estimate (0: 0.01 / epsilon)
+  double regularization = 0;       // mu = regularization * trace / r (0: 100 epsilon)
+  // Safeguards and detectors (docs/stability.md).
+  bool regularize = true;            // false: an ill-conditioned projection stops the rollout instead
+  bool inversion_fallback = true;    // Algorithm 2: retry a failed inversion cold, then reuse last step's solution
+  double max_failed_inversions = 0.05;  // Algorithm 2: stop when more than this fraction fails in one step
+  double energy_growth = 10;  // stop when |xhatdot| exceeds this times the fastest training motion (0: no check)
+  // Horizon (s), rounded to a whole number of the scene's output intervals (0: the scene's end time).
+  double end_time = 0;
+
+  nlohmann::json to_json() const;
+  void validate() const;  // throws std::invalid_argument naming the bad setting
+};
+
+// The precomputed sets of a hyper-reduced model (from the training motion the model reproduces).
+struct HyperReduction {
+  std::vector<int> samples;  // M: indices into the model's reference points
+  // Algorithm 1: the material points feeding the transfer, samples first (M, then the neighbours N).
+  std::vector<int> source_points;
+  // Algorithm 2: quadrature points (current configuration) and their volume weights.
+  std::vector<double> quadrature_x, quadrature_weight;
+  // I: grid nodes (global indices) and, per node, the sources (indices into source_points or the quadrature points)
+  // that can reach it: node n gathers node_sources[node_offsets[n] .. node_offsets[n + 1]).
+  std::vector<int> nodes, node_offsets, node_sources;
+
+  std::size_t num_sources() const { return node_offsets.empty() ? 0 : source_points.size() + quadrature_weight.size(); }
+  nlohmann::json summary() const;
+};
+
+// Picks settings.samples material points (all of them when 0). Greedy selection fits the full-order training runs'
+// velocities: from data when given, else the model's stored ranking (Model::sample_ranking); the other rules need
+// only the model and the scene.
+std::vector<int> select_samples(const Model& model, const Scene& scene, const RomSettings& settings,
+                                const TrainingData* data);
+
+// How many sample points a trained model ranks (Model::sample_ranking): more than any measured configuration uses.
+inline constexpr std::size_t ranked_samples = 64;
+
+// The first `count` points of the greedy selection on the model's training runs (data), in the order chosen: its
+// first k entries are the greedy selection of k. Stored with the model by `mpmrom train` and the pipeline.
+std::vector<std::int64_t> rank_samples_greedily(const Model& model, const TrainingData& data, std::size_t count);
+
+// Node set, neighbours and quadrature points for the given samples, from the motion of the model's training codes.
+HyperReduction build_hyper_reduction(const Model& model, const Scene& scene, const RomSettings& settings,
+                                     const std::vector<int>& samples);
+
+// One rollout: parameter values (in the order of the batch's parameter names) and, if known, its split.
+struct RolloutCase {
+  std::vector<double> values;
+  std::string split;  // "train", "test" or empty
+};
+
+struct RolloutOutcome {
+  int flags = 0;             // src/rom/kernels/sources.hpp RolloutFlag bits
+  int frames_completed = 0;  // output frames written before a fatal flag stopped it
+  double stopped_at = -1;    // time of the failure (s), -1 if none
+  double max_condition = 0;  // largest condition estimate of its normal equations
+  long regularized_steps = 0;
+  long inversion_failures = 0;   // Algorithm 2: failed inversions, all steps
+  long inversion_fallbacks = 0;  // of which the point used its previous step's solution
+  std::string message;           // empty, or one line on what happened
+  std::string warning;           // empty, or one line: parameters outside the training range
+};
+
+struct RomResult {
+  std::vector<std::string> parameter_names;
+  std::vector<RolloutCase> cases;
+  int latent_dim = 0;
+  std::vector<double> times;          // output times (frames)
+  std::vector<double> xhat, xhatdot;  // (rollouts, frames, r)
+  std::vector<RolloutOutcome> outcomes;
+  long steps = 0;            // time steps taken (each advances every rollout)
+  double step_seconds = 0;   // wall time of the stepping alone, all steps
+  double setup_seconds = 0;  // initial projection and device set-up
+};
+
+struct RomProgress {
+  int frame = 0, frames = 0;
+  double time = 0;
+  long steps = 0;
+  double seconds = 0;
+};
+
+// The fastest motion of the training codes, max |code(t_k+1) - code(t_k)| / (t_k+1 - t_k) within a run: the scale of
+// the latent speed limit (RomSettings::energy_growth).
+double training_latent_speed(const Model& model);
+
+// One line per parameter of `values` outside the range the model's training runs spanned (from the [design] of the
+// scene the model was trained on), with the distance in widths of that range; empty when all lie inside.
+std::string training_range_warning(const Model& model, const std::vector<std::string>& names,
+                                   const std::vector<double>& values);
+// The same for every rollout of a batch, the model's scene parsed once.
+std::vector<std::string> training_range_warnings(const Model& model, const std::vector<std::string>& names,
+                                                 const std::vector<RolloutCase>& cases);
+
+// Where a long batch of rollouts saves its state (docs/reliability.md): path empty for none. A checkpoint names its
+// batch (a hash of the model's weights, the scene file, the settings and the rollouts' parameters); one of another
+// batch is refused on resume.
+struct RolloutCheckpoint {
+  std::string path;
+  double seconds = 60;  // wall-clock time between checkpoints (taken at output frames)
+  bool resume = false;  // go on from the checkpoint at path if there is one
+};
+
+// Advances every case from the scene's initial state (projected onto the manifold) to its end time, recording the
+// latent state at the scene's output times. scene_path: the scene file whose parameters the cases set.
+RomResult run_rollouts(const Model& model, const std::string& scene_path, const std::vector<std::string>& names,
+                       const std::vector<RolloutCase>& cases, const RomSettings& settings,
+                       const HyperReduction& reduction, const std::function<void(const RomProgress&)>& progress = {},
+                       const RolloutCheckpoint& checkpoint = {});
+
+// run_rollouts spread over the ranks of comm (src/core/parallel.hpp): each rank advances a contiguous share of the cases
+// (parallel::share_of) and the shares take one time step, so the result equals run_rollouts' on one process bit for
+// bit. Rank 0 returns the whole batch, the other ranks their own share. progress is called on rank 0. Each rank
+// checkpoints its share into checkpoint.path + ".rank<k>" (docs/mpi.md).
+RomResult run_rollouts(const parallel::Communicator& comm, const Model& model, const std::string& scene_path,
+                       const std::vector<std::string>& names, const std::vector<RolloutCase>& cases,
+                       const RomSettings& settings, const HyperReduction& reduction,
+                       const std::function<void(const RomProgress&)>& progress = {},
+                       const RolloutCheckpoint& checkpoint = {});
+// The checkpoint file of rank `rank` of `size` for a batch whose checkpoint is path.
+std::string rank_checkpoint_path(const std::string& path, int rank, int size);
+
+// Decoded fields of one rollout at points X (n, 3): x, v (frames, n, 3) and F (frames, n, 3, 3) from the latent
+// states codes and rates (frames, r).
+struct DecodedFields {
+  std::vector<double> x, v, F;
+};
+DecodedFields decode(const Model& model, const std::vector<double>& X, const std::vector<double>& codes,
+                     const std::vector<double>& rates);
+
+}  // namespace mpmrom

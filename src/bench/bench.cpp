@@ -1,0 +1,44 @@
+#include "bench/bench.hpp"
+
+#include <chrono>
+
+#include "mpmrom/runtime.hpp"
+
+namespace mpmrom {
+
+FomBenchmark bench_fom(const Scene& scene, P2GStrategy strategy, const P2GTiling& tiling, ParticleOrder order,
+                       long steps, long warmup) {
+  FomSolver solver(scene, strategy, tiling, order);
+  const double dt = solver.stable_time_step();
+  for (long s = 0; s < warmup; ++s) solver.step(dt);
+  Kokkos::fence();
+  const auto start = std::chrono::steady_clock::now();
+  for (long s = 0; s < steps; ++s) solver.step(dt);
+  Kokkos::fence();
+  FomBenchmark result;
+  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  result.particles = solver.num_particles();
+  result.grid_nodes = solver.grid().num_nodes();
+  result.steps = steps;
+  result.dt = dt;
+  const double forces = double(scene.forces.size());
+  const double particle_reals = (26 + forces) + (12 + 24) + (forces > 0 ? 3 + forces : 0);
+  result.particle_bytes = sizeof(real_t) * particle_reals * double(result.particles);
+  result.grid_bytes = sizeof(real_t) * (4 + 4 + 4) * double(result.grid_nodes);
+  return result;
+}
+
+nlohmann::json benchmark_record(const std::string& benchmark, const std::string& scene) {
+  const RuntimeInfo info = runtime_info();
+  return {{"benchmark", benchmark},
+          {"scene", scene},
+          {"device", info.device},
+          {"backend", info.backend},
+          {"threads", info.threads},
+          {"precision", info.precision},
+          {"kokkos_version", info.kokkos_version},
+          {"mpmrom_version", info.version},
+          {"git_commit", info.git_commit}};
+}
+
+}  // namespace mpmrom

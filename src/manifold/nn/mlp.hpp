@@ -1,0 +1,285 @@
+// The deformation map x = g(X; xhat) of the paper (equations 3-6) as a multi-layer perceptron, and its batched
+// evaluation with Jacobians for the reduced-order model.
+//
+// Network: z = [(X - input_mean) / input_scale, xhat] (3 + r inputs) -> depth affine layers, ELU after every one but
+// the last -> y (3 outputs), and g(X; xhat) = X + output_mean + output_scale * y: the network predicts the
+// standardised displacement, so an untrained network is already close to the identity map and every output has
+// unit scale whatever the size of the motion.
+//
+// Parameters: one flat array, layer by layer: W_l (dims[l+1] x dims[l], row-major) then b_l (dims[l+1]). Row-major
+// weights give contiguous rows for the dot products of the forward pass on CPU and a broadcast read across a GPU
+// warp (every thread of a warp reads the same weight).
+#pragma once
+
+#include <Kokkos_Core.hpp>
+
+#include <stdexcept>
+#include <string>
+#include <type_traits>
+
+#include "manifold/nn/activation.hpp"
+
+namespace mpmrom::nn {
+
+inline constexpr int max_layers = 8;    // affine layers, hidden and output together
+inline constexpr int max_width = 128;   // widest layer (and 3 + r) that the one-thread kernels hold in registers
+inline constexpr int output_dim = 3;
+
+// The shape of the network and where each layer's parameters sit in the flat parameter array.
+struct MlpLayout {
+  int num_layers = 0;
+  int latent_dim = 0;
+  int dims[max_layers + 1] = {};       // layer l maps dims[l] -> dims[l + 1]; dims[0] = 3 + r, dims[num_layers] = 3
+  int weight_offset[max_layers] = {};  // W_l(i, j) = params[weight_offset[l] + i * dims[l] + j]
+  int bias_offset[max_layers] = {};    // b_l(i) = params[bias_offset[l] + i]
+  int num_params = 0;
+  int widest = 0;                      // max over dims
+
+  // depth affine layers: depth - 1 hidden layers of `width` ELU units and a linear output layer.
+  static MlpLayout make(int latent_dim, int width, int depth) {
+    if (latent_dim < 1 || 3 + latent_dim > max_width)
+      throw std::invalid_argument("latent dimension must be in [1, " + std::to_string(max_width - 3) + "], got " +
+                                  std::to_string(latent_dim));
+    if (width < 1 || width > max_width)
+      throw std::invalid_argument("width must be in [1, " + std::to_string(max_width) + "], got " +
+                                  std::to_string(width));
+    if (depth < 2 || depth > max_layers)
+      throw std::invalid_argument("depth (affine layers) must be in [2, " + std::to_string(max_layers) + "], got " +
+                                  std::to_string(depth));
+    MlpLayout layout;
+    layout.num_layers = depth;
+    layout.latent_dim = latent_dim;
+    layout.dims[0] = 3 + latent_dim;
+    for (int l = 1; l < depth; ++l) layout.dims[l] = width;
+    layout.dims[depth] = output_dim;
+    int offset = 0;
+    for (int l = 0; l < depth; ++l) {
+      layout.weight_offset[l] = offset;
+      offset += layout.dims[l + 1] * layout.dims[l];
+      layout.bias_offset[l] = offset;
+      offset += layout.dims[l + 1];
+    }
+    layout.num_params = offset;
+    for (int l = 0; l <= depth; ++l) layout.widest = layout.dims[l] > layout.widest ? layout.dims[l] : layout.widest;
+    return layout;
+  }
+
+  KOKKOS_INLINE_FUNCTION int width() const { return dims[1]; }
+  // Multiply-adds of one forward evaluation (the affine layers; activations not counted).
+  KOKKOS_INLINE_FUNCTION long forward_macs() const {
+    long macs = 0;
+    for (int l = 0; l < num_layers; ++l) macs += long(dims[l]) * dims[l + 1];
+    return macs;
+  }
+};
+
+// Input and output standardisation, stored in the model: z_X = (X - input_mean) / input_scale and
+// g = X + output_mean + output_scale * y.
+template <class T>
+struct Standardization {
+  T input_mean[3] = {0, 0, 0};
+  T input_scale[3] = {1, 1, 1};
+  T output_mean[3] = {0, 0, 0};
+  T output_scale[3] = {1, 1, 1};
+};
+
+// What a kernel needs of a model: its layout, standardisation and parameters (first layout.num_params entries of
+// params; the trainer keeps the latent codes after them in the same array).
+template <class T, class MemorySpace>
+struct Mlp {
+  MlpLayout layout;
+  Standardization<T> standardization;
+  Kokkos::View<const T*, MemorySpace> params;
+
+  KOKKOS_INLINE_FUNCTION T weight(int l, int i, int j) const {
+    return params(layout.weight_offset[l] + i * layout.dims[l] + j);
+  }
+  KOKKOS_INLINE_FUNCTION T bias(int l, int i) const { return params(layout.bias_offset[l] + i); }
+};
+
+// g(X; xhat) for one (X, xhat) pair. Parallelism contract: one thread, no team, no scratch; MaxWidth >=
+// layout.widest. xhat points at r contiguous values.
+template <int MaxWidth, class T, class MemorySpace>
+KOKKOS_INLINE_FUNCTION void SerialMlpForward(const Mlp<T, MemorySpace>& mlp, const T X[3], const T* xhat, T g[3]) {
+  const MlpLayout& layout = mlp.layout;
+  const Standardization<T>& s = mlp.standardization;
+  T buffer[2][MaxWidth];
+  T* h = buffer[0];
+  T* next = buffer[1];
+  for (int d = 0; d < 3; ++d) h[d] = (X[d] - s.input_mean[d]) / s.input_scale[d];
+  for (int q = 0; q < layout.latent_dim; ++q) h[3 + q] = xhat[q];
+  for (int l = 0; l < layout.num_layers; ++l) {
+    const bool hidden = l + 1 < layout.num_layers;
+    for (int i = 0; i < layout.dims[l + 1]; ++i) {
+      T a = mlp.bias(l, i);
+      for (int j = 0; j < layout.dims[l]; ++j) a += mlp.weight(l, i, j) * h[j];
+      next[i] = hidden ? elu(a) : a;
+    }
+    T* tmp = h;
+    h = next;
+    next = tmp;
+  }
+  for (int k = 0; k < 3; ++k) g[k] = X[k] + s.output_mean[k] + s.output_scale[k] * h[k];
+}
+
+// Reverse sweep for output k over the ELU slopes of a forward pass: dy_k/dz, z the standardised input. Uses the two
+// MaxWidth buffers and returns the one holding the result. Parallelism contract: one thread, no team, no scratch.
+template <int MaxWidth, class T, class MemorySpace>
+KOKKOS_INLINE_FUNCTION T* SerialMlpOutputAdjoint(const Mlp<T, MemorySpace>& mlp, const T (*slope)[MaxWidth], int k,
+                                                 T* adjoint, T* spare) {
+  const MlpLayout& layout = mlp.layout;
+  const int L = layout.num_layers;
+  // adjoint of layer L-1's input for the output y_k: row k of W_{L-1}
+  for (int j = 0; j < layout.dims[L - 1]; ++j) adjoint[j] = mlp.weight(L - 1, k, j);
+  for (int l = L - 2; l >= 0; --l) {
+    for (int i = 0; i < layout.dims[l + 1]; ++i) adjoint[i] *= slope[l][i];
+    for (int j = 0; j < layout.dims[l]; ++j) spare[j] = T(0);
+    for (int i = 0; i < layout.dims[l + 1]; ++i) {
+      const T a = adjoint[i];
+      for (int j = 0; j < layout.dims[l]; ++j) spare[j] += mlp.weight(l, i, j) * a;
+    }
+    T* tmp = adjoint;
+    adjoint = spare;
+    spare = tmp;
+  }
+  return adjoint;
+}
+
+// g(X; xhat), F = dg/dX (3x3, F[i][j] = dg_i/dX_j) and dg/dxhat (3 x r, row-major at dgdxhat) for one pair. The
+// Jacobian comes from three reverse sweeps (one per output) over the stored ELU slopes: 4 matrix-vector products
+// in all, against 4 + r for forward tangents. Parallelism contract: one thread, no team, no scratch;
+// MaxWidth >= layout.widest.
+template <int MaxWidth, class T, class MemorySpace>
+KOKKOS_INLINE_FUNCTION void SerialMlpForwardJacobian(const Mlp<T, MemorySpace>& mlp, const T X[3], const T* xhat,
+                                                     T g[3], T F[3][3], T* dgdxhat) {
+  const MlpLayout& layout = mlp.layout;
+  const Standardization<T>& s = mlp.standardization;
+  const int L = layout.num_layers;
+  T slope[max_layers - 1][MaxWidth];  // elu'(a) of each hidden layer
+  T buffer[2][MaxWidth];
+  T* h = buffer[0];
+  T* next = buffer[1];
+  for (int d = 0; d < 3; ++d) h[d] = (X[d] - s.input_mean[d]) / s.input_scale[d];
+  for (int q = 0; q < layout.latent_dim; ++q) h[3 + q] = xhat[q];
+  for (int l = 0; l < L; ++l) {
+    const bool hidden = l + 1 < L;
+    for (int i = 0; i < layout.dims[l + 1]; ++i) {
+      T a = mlp.bias(l, i);
+      for (int j = 0; j < layout.dims[l]; ++j) a += mlp.weight(l, i, j) * h[j];
+      if (hidden)
+        elu_and_derivative(a, next[i], slope[l][i]);
+      else
+        next[i] = a;
+    }
+    T* tmp = h;
+    h = next;
+    next = tmp;
+  }
+  for (int k = 0; k < 3; ++k) g[k] = X[k] + s.output_mean[k] + s.output_scale[k] * h[k];
+
+  for (int k = 0; k < 3; ++k) {
+    const T* dydz = SerialMlpOutputAdjoint<MaxWidth>(mlp, slope, k, h, next);
+    // undo the standardisation
+    for (int d = 0; d < 3; ++d) F[k][d] = (k == d ? T(1) : T(0)) + s.output_scale[k] * dydz[d] / s.input_scale[d];
+    for (int q = 0; q < layout.latent_dim; ++q) dgdxhat[k * layout.latent_dim + q] = s.output_scale[k] * dydz[3 + q];
+  }
+}
+
+// Calls f(std::integral_constant<int, W>{}) with the smallest compiled register width W >= widest.
+template <class Functor>
+void dispatch_max_width(int widest, Functor&& f) {
+  if (widest <= 32) f(std::integral_constant<int, 32>{});
+  else if (widest <= 64) f(std::integral_constant<int, 64>{});
+  else if (widest <= max_width) f(std::integral_constant<int, max_width>{});
+  else throw std::invalid_argument("network wider than " + std::to_string(max_width));
+}
+
+template <class T, class MemorySpace>
+using PointsView = Kokkos::View<const T**, Kokkos::LayoutRight, MemorySpace>;  // (points, 3)
+template <class T, class MemorySpace>
+using CodesView = Kokkos::View<const T**, Kokkos::LayoutRight, MemorySpace>;  // (codes, r)
+
+namespace impl {
+
+template <int MaxWidth, class T, class MemorySpace>
+struct Evaluate {
+  Mlp<T, MemorySpace> mlp;
+  PointsView<T, MemorySpace> X;
+  CodesView<T, MemorySpace> codes;
+  Kokkos::View<T***, Kokkos::LayoutRight, MemorySpace> g;
+
+  KOKKOS_INLINE_FUNCTION void operator()(const long e) const {
+    const int num_points = int(X.extent(0));
+    const int b = int(e / num_points), p = int(e % num_points);
+    const T Xp[3] = {X(p, 0), X(p, 1), X(p, 2)};
+    T gp[3];
+    SerialMlpForward<MaxWidth>(mlp, Xp, &codes(b, 0), gp);
+    for (int k = 0; k < 3; ++k) g(b, p, k) = gp[k];
+  }
+};
+
+template <int MaxWidth, class T, class MemorySpace>
+struct EvaluateWithJacobians {
+  Mlp<T, MemorySpace> mlp;
+  PointsView<T, MemorySpace> X;
+  CodesView<T, MemorySpace> codes;
+  CodesView<T, MemorySpace> code_rates;  // may be empty: no velocity
+  Kokkos::View<T***, Kokkos::LayoutRight, MemorySpace> g;
+  Kokkos::View<T****, Kokkos::LayoutRight, MemorySpace> F;
+  Kokkos::View<T****, Kokkos::LayoutRight, MemorySpace> dgdxhat;
+  Kokkos::View<T***, Kokkos::LayoutRight, MemorySpace> velocity;
+
+  KOKKOS_INLINE_FUNCTION void operator()(const long e) const {
+    const int num_points = int(X.extent(0));
+    const int r = mlp.layout.latent_dim;
+    const int b = int(e / num_points), p = int(e % num_points);
+    const T Xp[3] = {X(p, 0), X(p, 1), X(p, 2)};
+    T gp[3], Fp[3][3];
+    T* J = &dgdxhat(b, p, 0, 0);
+    SerialMlpForwardJacobian<MaxWidth>(mlp, Xp, &codes(b, 0), gp, Fp, J);
+    for (int i = 0; i < 3; ++i) {
+      g(b, p, i) = gp[i];
+      for (int j = 0; j < 3; ++j) F(b, p, i, j) = Fp[i][j];
+    }
+    if (velocity.extent(0) == 0) return;
+    for (int i = 0; i < 3; ++i) {
+      T v = 0;
+      for (int q = 0; q < r; ++q) v += J[i * r + q] * code_rates(b, q);
+      velocity(b, p, i) = v;
+    }
+  }
+};
+
+}  // namespace impl
+
+// g(X_p; xhat_b) for every point p and code b: g (codes, points, 3).
+template <class ExecutionSpace, class T, class MemorySpace>
+void evaluate(const ExecutionSpace& space, const Mlp<T, MemorySpace>& mlp, const PointsView<T, MemorySpace>& X,
+              const CodesView<T, MemorySpace>& codes, const Kokkos::View<T***, Kokkos::LayoutRight, MemorySpace>& g) {
+  const long n = long(codes.extent(0)) * long(X.extent(0));
+  dispatch_max_width(mlp.layout.widest, [&](auto width) {
+    Kokkos::parallel_for("mpmrom::nn::evaluate", Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>>(space, 0, n),
+                         impl::Evaluate<decltype(width)::value, T, MemorySpace>{mlp, X, codes, g});
+  });
+}
+
+// For every point p and code b: g (codes, points, 3), F = dg/dX (codes, points, 3, 3), dg/dxhat (codes, points, 3, r)
+// and, when code_rates (codes, r) and velocity (codes, points, 3) are not empty, the velocity dg/dxhat * xhatdot.
+template <class ExecutionSpace, class T, class MemorySpace>
+void evaluate_with_jacobians(const ExecutionSpace& space, const Mlp<T, MemorySpace>& mlp,
+                             const PointsView<T, MemorySpace>& X, const CodesView<T, MemorySpace>& codes,
+                             const CodesView<T, MemorySpace>& code_rates,
+                             const Kokkos::View<T***, Kokkos::LayoutRight, MemorySpace>& g,
+                             const Kokkos::View<T****, Kokkos::LayoutRight, MemorySpace>& F,
+                             const Kokkos::View<T****, Kokkos::LayoutRight, MemorySpace>& dgdxhat,
+                             const Kokkos::View<T***, Kokkos::LayoutRight, MemorySpace>& velocity) {
+  const long n = long(codes.extent(0)) * long(X.extent(0));
+  dispatch_max_width(mlp.layout.widest, [&](auto width) {
+    Kokkos::parallel_for("mpmrom::nn::evaluate_with_jacobians",
+                         Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>>(space, 0, n),
+                         impl::EvaluateWithJacobians<decltype(width)::value, T, MemorySpace>{
+                             mlp, X, codes, code_rates, g, F, dgdxhat, velocity});
+  });
+}
+
+}  // namespace mpmrom::nn

@@ -1,0 +1,236 @@
+// Particle-to-grid transfer (APIC or PIC) with the internal (stress) and external forces folded into the grid momentum:
+//   m_i  = sum_p w_ip m_p
+//   mv_i = sum_p w_ip (m_p v_p + m_p C_p (x_i - x_p)) + dt (w_ip f_p - V_p^0 tau_p grad w_ip)
+// with tau = P F^T the Kirchhoff stress. Three interchangeable accumulation strategies: atomics on the grid; a Kokkos
+// ScatterView (duplicated per thread on CPUs, atomic on GPUs); or tiles: a team sums its particles into a box of
+// nodes in scratch (shared) memory, then adds the box to the grid, so that particles stored near each other (the
+// FOM can store them brick by brick) cost a few global atomics per node instead of one per particle and node.
+// Parallelism: one thread per particle (atomic, scatter view); a team per block of consecutive particles (tiles).
+#pragma once
+
+#include <Kokkos_ScatterView.hpp>
+
+#include "mpm/bspline.hpp"
+#include "mpm/constitutive.hpp"
+#include "mpm/grid.hpp"
+#include "mpm/particles.hpp"
+
+namespace mpmrom {
+
+constexpr int kMaxExternalForces = 4;
+
+// Current total external forces (N), three components each; particle p carries force_share(p, k) of force k.
+struct ExternalForces {
+  Kokkos::Array<real_t, 3 * kMaxExternalForces> force;
+  int count = 0;
+};
+
+enum class P2GStrategy { Atomic, ScatterView, Tiled };
+
+// The per-particle work of P2G, shared by both accumulation strategies.
+template <class MemorySpace>
+struct P2GParticle {
+  ParticleViews<MemorySpace> particles;
+  GridGeometry<real_t> grid;
+  ElasticMaterial<real_t> material;
+  ExternalForces external;
+  real_t dt;
+  bool apic;
+  Kokkos::View<int, MemorySpace> outside;  // counts particles whose stencil left the grid
+  // (particles): V_p Psi(F_p) of the state P2G reads, written when not empty (the FOM's energy-checking steps)
+  Kokkos::View<double*, MemorySpace> elastic_energy;
+
+  template <class Add>
+  KOKKOS_INLINE_FUNCTION void operator()(int p, const Add& add) const {
+    const Vec3<real_t> x = load_vec3(particles.x, p);
+    const auto s = quadratic_stencil(x, grid.origin, grid.inv_dx);
+    const bool with_energy = elastic_energy.extent(0) > 0;
+    if (!grid.stencil_inside(s.base)) {
+      Kokkos::atomic_add(&outside(), 1);
+      if (with_energy) elastic_energy(p) = 0;  // the step fails: it left the grid
+      return;
+    }
+    const real_t m = particles.mass(p);
+    const Vec3<real_t> momentum = m * load_vec3(particles.v, p);
+    const Mat3<real_t> affine = apic ? m * load_mat3(particles.C, p) : Mat3<real_t>::zero();
+    const Mat3<real_t> F = load_mat3(particles.F, p);
+    real_t psi = 0;
+    const Mat3<real_t> tau = kirchhoff_stress(material, F, with_energy ? &psi : nullptr);
+    const Mat3<real_t> stress = (-dt * particles.volume(p)) * tau;
+    if (with_energy) elastic_energy(p) = double(particles.volume(p)) * double(psi);
+    Vec3<real_t> impulse = Vec3<real_t>::zero();  // dt * external force on this particle
+    for (int k = 0; k < external.count; ++k) {
+      const real_t share = dt * particles.force_share(p, k);
+      for (int d = 0; d < 3; ++d) impulse[d] += share * external.force[3 * k + d];
+    }
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b)
+        for (int c = 0; c < 3; ++c) {
+          const real_t w = s.weight(a, b, c);
+          const Vec3<real_t> offset = s.node_offset(a, b, c, x, grid.origin, grid.dx);
+          const Vec3<real_t> node_momentum = w * (momentum + affine * offset + impulse) + stress * s.gradient(a, b, c);
+          const int ijk[3] = {s.base[0] + a, s.base[1] + b, s.base[2] + c};
+          add(grid.index(ijk[0], ijk[1], ijk[2]), ijk, w * m, node_momentum);
+        }
+  }
+};
+
+// Accumulators: add(node, (i, j, k) of node, mass, momentum) sums one particle's share into one node.
+template <class MemorySpace>
+struct AtomicGridAdd {
+  GridNodeView<MemorySpace> nodes;
+  KOKKOS_INLINE_FUNCTION void operator()(int node, const int*, real_t mass, const Vec3<real_t>& momentum) const {
+    Kokkos::atomic_add(&nodes(node, 0), mass);
+    for (int d = 0; d < 3; ++d) Kokkos::atomic_add(&nodes(node, d + 1), momentum[d]);
+  }
+};
+
+template <class Access>
+struct ScatterGridAdd {
+  const Access& access;
+  KOKKOS_INLINE_FUNCTION void operator()(int node, const int*, real_t mass, const Vec3<real_t>& momentum) const {
+    access(node, 0) += mass;
+    for (int d = 0; d < 3; ++d) access(node, d + 1) += momentum[d];
+  }
+};
+
+// A box of nodes [lo, lo + extent) in team scratch memory, one component after the other (mass, then momentum x,
+// y, z), so that the threads of a team that add to neighbouring nodes touch neighbouring banks.
+template <class ScratchView>
+struct TileGridAdd {
+  ScratchView tile;
+  int lo[3];
+  int extent[3];
+  int volume;
+  KOKKOS_INLINE_FUNCTION int local(const int ijk[3]) const {
+    return ((ijk[0] - lo[0]) * extent[1] + (ijk[1] - lo[1])) * extent[2] + (ijk[2] - lo[2]);
+  }
+  // The grid node of tile entry l: the inverse of local().
+  KOKKOS_INLINE_FUNCTION int grid_node(int l, const GridGeometry<real_t>& grid) const {
+    const int k = l % extent[2], j = (l / extent[2]) % extent[1], i = l / (extent[1] * extent[2]);
+    return grid.index(lo[0] + i, lo[1] + j, lo[2] + k);
+  }
+  KOKKOS_INLINE_FUNCTION void operator()(int, const int ijk[3], real_t mass, const Vec3<real_t>& momentum) const {
+    const int l = local(ijk);
+    Kokkos::atomic_add(&tile(l), mass);
+    for (int d = 0; d < 3; ++d) Kokkos::atomic_add(&tile((d + 1) * volume + l), momentum[d]);
+  }
+};
+
+// P2G with atomic adds into `nodes`, which the caller has zeroed.
+template <class ExecutionSpace, class MemorySpace>
+void p2g_atomic(const ExecutionSpace& space, const P2GParticle<MemorySpace>& kernel,
+                const GridNodeView<MemorySpace>& nodes) {
+  const AtomicGridAdd<MemorySpace> add{nodes};
+  Kokkos::parallel_for(
+      "mpmrom::fom::p2g_atomic", Kokkos::RangePolicy<ExecutionSpace>(space, 0, kernel.particles.size()),
+      KOKKOS_LAMBDA(const int p) { kernel(p, add); });
+}
+
+template <class ExecutionSpace, class MemorySpace>
+using GridScatterView = Kokkos::Experimental::ScatterView<real_t* [4], typename GridNodeView<MemorySpace>::array_layout,
+                                                          ExecutionSpace, Kokkos::Experimental::ScatterSum>;
+
+// P2G through a ScatterView (kept by the caller across steps so its per-thread copies are allocated once), then
+// contributed into `nodes`, which the caller has zeroed.
+template <class ExecutionSpace, class MemorySpace>
+void p2g_scatter(const ExecutionSpace& space, const P2GParticle<MemorySpace>& kernel,
+                 GridScatterView<ExecutionSpace, MemorySpace>& scatter, const GridNodeView<MemorySpace>& nodes) {
+  scatter.reset();
+  Kokkos::parallel_for(
+      "mpmrom::fom::p2g_scatter", Kokkos::RangePolicy<ExecutionSpace>(space, 0, kernel.particles.size()),
+      KOKKOS_LAMBDA(const int p) {
+        auto access = scatter.access();
+        kernel(p, ScatterGridAdd<decltype(access)>{access});
+      });
+  GridNodeView<MemorySpace> destination = nodes;  // Kokkos 3.4's contribute() takes a non-const View reference
+  Kokkos::Experimental::contribute(destination, scatter);
+}
+
+// Tiled P2G's shape: threads per team, consecutive particles per team, and the largest box (in nodes) that a team
+// sums in scratch memory; a team whose particles' stencils span a larger box adds them with global atomics.
+struct P2GTiling {
+  int team_size;
+  int particles_per_team;
+  int max_tile_nodes;
+};
+
+// One thread a team on host backends (the tile is then a per-thread cache of the grid); on GPUs 128 threads over 256
+// particles, which the FOM's brick order (4^3 cells of about 8 particles) keeps inside one brick's 6^3 nodes. The
+// tile limit keeps the scratch at 16 kB in float (32 kB in double), well inside a GPU block's shared memory.
+template <class ExecutionSpace>
+P2GTiling default_p2g_tiling() {
+  using Memory = typename ExecutionSpace::memory_space;
+  constexpr bool host = Kokkos::SpaceAccessibility<Kokkos::HostSpace, Memory>::accessible;
+  return host ? P2GTiling{1, 256, 1024} : P2GTiling{128, 256, 1024};
+}
+
+// P2G through team scratch tiles into `nodes`, which the caller has zeroed.
+template <class ExecutionSpace, class MemorySpace>
+void p2g_tiled(const ExecutionSpace& space, const P2GParticle<MemorySpace>& kernel,
+               const GridNodeView<MemorySpace>& nodes, const P2GTiling& tiling) {
+  using Policy = Kokkos::TeamPolicy<ExecutionSpace>;
+  using Member = typename Policy::member_type;
+  using ScratchSpace = typename ExecutionSpace::scratch_memory_space;
+  using TileView = Kokkos::View<real_t*, ScratchSpace, Kokkos::MemoryTraits<Kokkos::Unmanaged>>;
+  using BoxView = Kokkos::View<int[6], ScratchSpace, Kokkos::MemoryTraits<Kokkos::Unmanaged>>;
+  const int n = static_cast<int>(kernel.particles.size());
+  const int per_team = tiling.particles_per_team, max_nodes = tiling.max_tile_nodes;
+  if (n == 0) return;
+  const int teams = (n + per_team - 1) / per_team;
+  const std::size_t scratch = BoxView::shmem_size() + TileView::shmem_size(4 * std::size_t(max_nodes));
+  const AtomicGridAdd<MemorySpace> global_add{nodes};
+  const GridGeometry<real_t> grid = kernel.grid;
+  Kokkos::parallel_for(
+      "mpmrom::fom::p2g_tiled",
+      Policy(space, teams, tiling.team_size).set_scratch_size(0, Kokkos::PerTeam(scratch)),
+      KOKKOS_LAMBDA(const Member& team) {
+        const int first = team.league_rank() * per_team;
+        const int last = first + per_team < n ? first + per_team : n;
+        // The box of every stencil of the team's particles: lowest base node and highest base node per axis.
+        BoxView box(team.team_scratch(0));
+        Kokkos::single(Kokkos::PerTeam(team), [&]() {
+          for (int d = 0; d < 3; ++d) {
+            box(d) = grid.dims[d];
+            box(3 + d) = -1;
+          }
+        });
+        team.team_barrier();
+        Kokkos::parallel_for(Kokkos::TeamThreadRange(team, first, last), [&](const int p) {
+          const auto s = quadratic_stencil(load_vec3(kernel.particles.x, p), grid.origin, grid.inv_dx);
+          if (!grid.stencil_inside(s.base)) return;
+          for (int d = 0; d < 3; ++d) {
+            Kokkos::atomic_fetch_min(&box(d), s.base[d]);
+            Kokkos::atomic_fetch_max(&box(3 + d), s.base[d]);
+          }
+        });
+        team.team_barrier();
+        TileGridAdd<TileView> add;
+        long volume = 1;
+        for (int d = 0; d < 3; ++d) {
+          add.lo[d] = box(d);
+          add.extent[d] = box(3 + d) < box(d) ? 0 : box(3 + d) - box(d) + 3;
+          volume *= add.extent[d];
+        }
+        if (volume == 0 || volume > max_nodes) {  // no particle inside (each counts itself), or too spread out
+          Kokkos::parallel_for(Kokkos::TeamThreadRange(team, first, last), [&](const int p) { kernel(p, global_add); });
+          return;
+        }
+        add.volume = static_cast<int>(volume);
+        add.tile = TileView(team.team_scratch(0), 4 * std::size_t(max_nodes));
+        Kokkos::parallel_for(Kokkos::TeamThreadRange(team, 4 * add.volume), [&](const int i) { add.tile(i) = 0; });
+        team.team_barrier();
+        Kokkos::parallel_for(Kokkos::TeamThreadRange(team, first, last), [&](const int p) { kernel(p, add); });
+        team.team_barrier();
+        Kokkos::parallel_for(Kokkos::TeamThreadRange(team, add.volume), [&](const int l) {
+          const real_t mass = add.tile(l);
+          const Vec3<real_t> momentum{{add.tile(add.volume + l), add.tile(2 * add.volume + l),
+                                       add.tile(3 * add.volume + l)}};
+          if (mass == real_t(0) && momentum[0] == real_t(0) && momentum[1] == real_t(0) && momentum[2] == real_t(0))
+            return;
+          global_add(add.grid_node(l, grid), nullptr, mass, momentum);
+        });
+      });
+}
+
+}  // namespace mpmrom

@@ -1,0 +1,486 @@
+// The reduced model's time stepper, generic in the manifold (src/rom/kernels/manifold.hpp) so that tests can drive it
+// with analytic maps; src/rom/rom.cpp instantiates it for the trained network. Private to the library and its tests.
+#pragma once
+
+#include <Kokkos_Core.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "fom/fom.hpp"
+#include "manifold/device_data.hpp"
+#include "rom/kernels/projection.hpp"
+#include "rom/kernels/sources.hpp"
+#include "rom/kernels/transfer.hpp"
+#include "core/parallel.hpp"
+#include "mpmrom/rom.hpp"
+
+namespace mpmrom::impl {
+
+// The full-order material points (row-major X (n, 3), mass and reference volume (n)) the reduced model stands for.
+struct ReferencePoints {
+  const std::vector<double>& X;
+  const std::vector<double>& mass;
+  const std::vector<double>& volume;
+};
+
+// One rollout's loads: forces as force per unit of the points' mass in each force region, as the full-order model
+// shares them.
+rom::RolloutLoads loads_for_scene(const Scene& scene, const ReferencePoints& points);
+// The scene's bodies as the reference solid of Algorithm 2.
+rom::ReferenceDomain reference_domain(const Scene& scene);
+// One line naming the causes behind fatal rollout flags; with_remedies adds what to change for each, in brackets.
+std::string describe_flags(int flags, bool with_remedies = false);
+// Sets the scene's horizon to end_time rounded to whole output intervals, keeping the interval (--end-time).
+void apply_horizon(Scene& scene, double end_time);
+
+// Node set, neighbours and quadrature points for the samples, from positions (configurations, P, 3) of the motion
+// the model covers. next[c], if given, is the configuration that follows c in time (-1 at a run's end): the sets then
+// cover the straight path between the two, not just the output times.
+HyperReduction hyper_reduction_from_motion(const Scene& scene, const RomSettings& settings,
+                                           const std::vector<int>& samples, const std::vector<double>& positions,
+                                           std::size_t P, const std::vector<int>& next = {});
+
+// Everything a batch's future depends on, at an output frame: what a rollout checkpoint holds.
+struct BatchState {
+  int frame = 0;
+  long steps = 0;
+  double step_seconds = 0, max_speed = 0;
+  std::vector<double> xhat, xhatdot, max_condition;          // (rollouts, r), (rollouts, r), (rollouts)
+  std::vector<int> flags, failures, fallbacks, regularized;  // (rollouts)
+  std::vector<double> reference;                             // Algorithm 2 warm starts: (rollouts, sources, 3)
+  std::vector<int> converged;                                //   and whether each converged (rollouts, sources)
+  std::vector<RolloutOutcome> outcomes;                      // frames completed, stop time and message
+};
+
+// A batch of rollouts on the device and the step that advances it, one output interval at a time. The base class
+// hides the manifold's type, so that the public RolloutBatch (rollout_batch.hpp) can hold any network width.
+class BatchStepperBase {
+ public:
+  virtual ~BatchStepperBase() = default;
+  int rollouts() const { return int(outcomes_.size()); }
+  int latent_dim() const { return latent_dim_; }
+  int frames() const { return int(times_.size()); }  // output frames, the initial state included
+  int frame() const { return frame_; }                 // the output frame the batch is at
+  double time() const { return times_[std::size_t(frame_)]; }
+  const std::vector<double>& times() const { return times_; }
+  long steps() const { return steps_; }
+  double step_seconds() const { return step_seconds_; }  // wall time spent in advance_frame
+  // Advances every running rollout to the next output time (rollouts that have stopped keep their last state);
+  // false, doing nothing, when the batch is already at the horizon.
+  virtual bool advance_frame() = 0;
+  // The latent state and its rate now, (rollouts, r) row-major each.
+  virtual void latent(std::vector<double>& xhat, std::vector<double>& xhatdot) const = 0;
+  // The same for one rollout (r values each): copies that rollout's row only.
+  virtual void latent_of(int rollout, std::vector<double>& xhat, std::vector<double>& xhatdot) const = 0;
+  // The rollout's detector flags as of the last output frame, kept on the host (no device copy).
+  int flags(int rollout) const { return outcomes_[std::size_t(rollout)].flags; }
+  // What has happened to each rollout so far: flags, stop time and message, counters, frames completed.
+  virtual std::vector<RolloutOutcome> outcomes() const = 0;
+  // The batch's state now, and back to a saved one (of a batch of the same model, scene, settings and rollouts):
+  // advancing from a restored state repeats bit for bit what the saved batch did next.
+  virtual BatchState state() const = 0;
+  virtual void restore(const BatchState& state) = 0;
+  // Under MPI, ranks holding shares of one batch advance it with one time step, as one process would: combine
+  // replaces each value by its maximum over the ranks (empty: this stepper holds the whole batch).
+  void share_time_step(std::function<void(double*, std::size_t)> combine) { share_max_ = std::move(combine); }
+
+ protected:
+  BatchStepperBase(int rollouts, int latent_dim, std::vector<double> times)
+      : latent_dim_(latent_dim), times_(std::move(times)), outcomes_(std::size_t(rollouts)) {
+    for (auto& outcome : outcomes_) outcome.frames_completed = 1;
+  }
+  int latent_dim_;
+  std::vector<double> times_;
+  int frame_ = 0;
+  long steps_ = 0;
+  double step_seconds_ = 0;
+  std::vector<RolloutOutcome> outcomes_;  // flags, frames_completed, stopped_at and message, kept on the host
+  std::function<void(double*, std::size_t)> share_max_;
+};
+
+template <class Manifold>
+class BatchStepper final : public BatchStepperBase {
+  using ExecutionSpace = Kokkos::DefaultExecutionSpace;
+  using MemorySpace = ExecutionSpace::memory_space;
+  using Vector = DeviceVector;
+  using Matrix = DeviceMatrix;
+  using Cube = DeviceCube;
+  using Quad = DeviceQuad;
+  using IndexView = Kokkos::View<int*, DeviceMemory>;
+  static constexpr bool host_space = Kokkos::SpaceAccessibility<Kokkos::HostSpace, MemorySpace>::accessible;
+
+ public:
+  // The batch at (xhat0, xhatdot0) (rollouts x r, row-major) at time 0, to be advanced through the scene's output
+  // times on manifold. max_latent_speed: the energy detector's limit on |xhatdot| (0: none).
+  BatchStepper(const Manifold& manifold, int latent_dim, const ReferencePoints& model, const Scene& scene,
+               const std::vector<rom::RolloutLoads>& host_loads, const std::vector<double>& xhat0,
+               const std::vector<double>& xhatdot0, const RomSettings& settings, double max_latent_speed,
+               const HyperReduction& h)
+      : BatchStepperBase(int(host_loads.size()), latent_dim, output_times(scene)),
+        manifold_(manifold),
+        settings_(settings),
+        B_(int(host_loads.size())),
+        S_(int(h.samples.size())),
+        I_(int(h.nodes.size())),
+        point_method_(settings.method == RomMethod::MaterialPoint),
+        K_(point_method_ ? int(h.source_points.size()) : int(h.quadrature_weight.size())),
+        grid_(grid_for_scene(scene)),
+        material_(material_for_scene(scene)),
+        apic_(scene.transfer == TransferKind::APIC),
+        wave_speed_(double(stable_time_step_wave_speed(material_, real_t(scene.material.density)))),
+        cfl_(settings.cfl > 0 ? settings.cfl : scene.cfl),
+        dx_(scene.dx),
+        density_(real_t(scene.material.density)),
+        domain_(reference_domain(scene)),
+        max_failed_inversions_(int(std::floor(settings.max_failed_inversions * K_))) {
+    const int r = latent_dim, B = B_, S = S_, K = K_;
+    std::vector<double> X_src, mass_src, volume_src, X_samples;
+    for (const int p : h.source_points) {
+      X_src.insert(X_src.end(), model.X.begin() + 3 * p, model.X.begin() + 3 * p + 3);
+      mass_src.push_back(model.mass[p]);
+      volume_src.push_back(model.volume[p]);
+    }
+    for (const int s : h.samples)
+      X_samples.insert(X_samples.end(), model.X.begin() + 3 * s, model.X.begin() + 3 * s + 3);
+    points_X_ = upload<Matrix>("mpmrom::rom::source_X", X_src, X_src.size() / 3, 3);
+    points_mass_ = upload<Vector>("mpmrom::rom::source_mass", mass_src, mass_src.size());
+    points_volume_ = upload<Vector>("mpmrom::rom::source_volume", volume_src, volume_src.size());
+    samples_X_ = upload<Matrix>("mpmrom::rom::samples_X", X_samples, S, 3);
+    quadrature_x_ = upload<Matrix>("mpmrom::rom::quadrature_x", h.quadrature_x, h.quadrature_weight.size(), 3);
+    quadrature_w_ = upload<Vector>("mpmrom::rom::quadrature_w", h.quadrature_weight, h.quadrature_weight.size());
+    nodes_ = upload_indices("mpmrom::rom::nodes", h.nodes);
+    offsets_ = upload_indices("mpmrom::rom::node_offsets", h.node_offsets);
+    node_sources_ = upload_indices("mpmrom::rom::node_sources", h.node_sources);
+    std::vector<int> slot_host(std::size_t(grid_.num_nodes()), -1);
+    for (int n = 0; n < I_; ++n) slot_host[h.nodes[n]] = n;
+    node_slot_ = upload_indices("mpmrom::rom::node_slot", slot_host);
+    loads_ = Kokkos::View<rom::RolloutLoads*, MemorySpace>("mpmrom::rom::loads", B);
+    {
+      auto host = Kokkos::create_mirror_view(loads_);
+      for (int b = 0; b < B; ++b) host(b) = host_loads[b];
+      Kokkos::deep_copy(loads_, host);
+    }
+    xhat_ = upload<Matrix>("mpmrom::rom::xhat", xhat0, B, r);
+    xhatdot_ = upload<Matrix>("mpmrom::rom::xhatdot", xhatdot0, B, r);
+    sources_ = rom::make_sources<MemorySpace>("mpmrom::rom::sources", K, B);
+    sample_x_ = Cube("mpmrom::rom::sample_x", B, S, 3);
+    sample_v_ = Cube("mpmrom::rom::sample_v", B, S, 3);
+    sample_J_ = Quad("mpmrom::rom::sample_J", B, S, 3, r);
+    node_v_ = Cube("mpmrom::rom::node_v", B, I_, 3);
+    trial_x_ = Cube("mpmrom::rom::trial_x", B, S, 3);
+    xhat_next_ = Matrix("mpmrom::rom::xhat_next", B, r);
+    xhatdot_next_ = Matrix("mpmrom::rom::xhatdot_next", B, r);
+    reference_ = Cube("mpmrom::rom::reference", point_method_ ? 0 : B, point_method_ ? 0 : K, 3);
+    converged_ = Kokkos::View<unsigned char**, MemorySpace>("mpmrom::rom::converged", point_method_ ? 0 : B,
+                                                            point_method_ ? 0 : K);
+    failures_ = Kokkos::View<int*, MemorySpace>("mpmrom::rom::failures", B);
+    flags_ = Kokkos::View<int*, MemorySpace>("mpmrom::rom::flags", B);
+    step_failures_ = Kokkos::View<int*, MemorySpace>("mpmrom::rom::step_failures", B);
+    fallbacks_ = Kokkos::View<int*, MemorySpace>("mpmrom::rom::fallbacks", B);
+    max_condition_ = Vector("mpmrom::rom::max_condition", B);
+    regularized_ = Kokkos::View<int*, MemorySpace>("mpmrom::rom::regularized", B);
+    fastest_sample_ = Kokkos::View<real_t, MemorySpace>("mpmrom::rom::fastest_sample");
+
+    constexpr double epsilon = std::numeric_limits<real_t>::epsilon();
+    guard_.max_condition = real_t(settings.max_condition > 0 ? settings.max_condition : 0.01 / epsilon);
+    guard_.regularization = real_t(settings.regularization > 0 ? settings.regularization : 100 * epsilon);
+    guard_.regularize = settings.regularize;
+    guard_.max_latent_speed = real_t(max_latent_speed);
+    newton_.tolerance = real_t(settings.newton_tolerance * scene.dx);
+    newton_.max_iterations = settings.newton_iterations;
+
+    sources_scratch_ = rom::MaterialPointSources<Manifold, ExecutionSpace>::scratch_for(manifold_);
+    samples_scratch_ = rom::SampleKinematics<Manifold, ExecutionSpace>::scratch_for(manifold_);
+    sources_shape_ = rom::team_shape<ExecutionSpace>(long(B) * K, manifold_.team_lanes(), sources_scratch_);
+    samples_shape_ = rom::team_shape<ExecutionSpace>(long(B) * S, manifold_.team_lanes(), samples_scratch_);
+    // On GPUs, a batch too small to give each of a quarter of the resident threads a node gathers across lanes;
+    // the projection takes its rows across lanes.
+    if (!host_space) {
+      gather_across_lanes_ = long(B) * I_ * 4 < long(compat::concurrency(ExecutionSpace()));
+      projection_lanes_ = 32;
+    }
+  }
+
+  bool advance_frame() override {
+    if (frame_ + 1 >= frames()) return false;
+    const auto start = std::chrono::steady_clock::now();
+    const double target = times_[std::size_t(frame_ + 1)];
+    double time = times_[std::size_t(frame_)];
+    double max_speed = double(max_speed_);
+    // Once every rollout has stopped there is nothing left to advance: the remaining frames repeat the last state.
+    bool all_stopped = std::all_of(outcomes_.begin(), outcomes_.end(),
+                                   [](const RolloutOutcome& o) { return (o.flags & rom::fatal_flags) != 0; });
+    if (share_max_) {  // the fastest sample and whether any rollout runs, over the whole batch
+      double shared[2] = {max_speed, all_stopped ? 0.0 : 1.0};
+      share_max_(shared, 2);
+      max_speed = shared[0];
+      all_stopped = shared[1] == 0;
+    }
+    const double dt_max = cfl_ * dx_ / (wave_speed_ + max_speed);
+    const long substeps = all_stopped ? 0 : std::max(1L, long(std::ceil((target - time) / dt_max - 1e-9)));
+    const double dt_interval = substeps > 0 ? (target - time) / double(substeps) : 0.0;
+    for (long sub = 0; sub < substeps; ++sub) {
+      substep(real_t(time), real_t(dt_interval));
+      time = sub + 1 == substeps ? target : time + dt_interval;
+      ++steps_;
+    }
+    if (substeps > 0) Kokkos::deep_copy(max_speed_, fastest_sample_);
+    ++frame_;
+    update_outcomes(target);
+    step_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return true;
+  }
+
+  void latent(std::vector<double>& xhat, std::vector<double>& xhatdot) const override {
+    xhat = download(xhat_);
+    xhatdot = download(xhatdot_);
+  }
+
+  void latent_of(int rollout, std::vector<double>& xhat, std::vector<double>& xhatdot) const override {
+    xhat = download(Kokkos::subview(xhat_, rollout, Kokkos::ALL));
+    xhatdot = download(Kokkos::subview(xhatdot_, rollout, Kokkos::ALL));
+  }
+
+  BatchState state() const override {
+    BatchState saved;
+    saved.frame = frame_;
+    saved.steps = steps_;
+    saved.step_seconds = step_seconds_;
+    saved.max_speed = double(max_speed_);
+    saved.xhat = download(xhat_);
+    saved.xhatdot = download(xhatdot_);
+    saved.max_condition = download(max_condition_);
+    saved.reference = download(reference_);
+    saved.flags = download_ints(flags_);
+    saved.failures = download_ints(failures_);
+    saved.fallbacks = download_ints(fallbacks_);
+    saved.regularized = download_ints(regularized_);
+    saved.converged = download_ints(converged_);
+    saved.outcomes = outcomes_;
+    return saved;
+  }
+
+  void restore(const BatchState& saved) override {
+    const std::size_t B = std::size_t(B_), r = std::size_t(latent_dim_);
+    if (saved.frame < 0 || saved.frame >= frames() || saved.xhat.size() != B * r || saved.xhatdot.size() != B * r ||
+        saved.max_condition.size() != B || saved.flags.size() != B || saved.failures.size() != B ||
+        saved.fallbacks.size() != B || saved.regularized.size() != B || saved.outcomes.size() != B ||
+        saved.reference.size() != reference_.size() || saved.converged.size() != converged_.size())
+      throw std::runtime_error("the saved state is of another batch (frame or sizes differ)");
+    frame_ = saved.frame;
+    steps_ = saved.steps;
+    step_seconds_ = saved.step_seconds;
+    max_speed_ = real_t(saved.max_speed);
+    const auto fill = [](const auto& view, const auto& values) {
+      const auto host = Kokkos::create_mirror_view(view);
+      using Value = typename std::decay_t<decltype(host)>::value_type;
+      for (std::size_t i = 0; i < values.size(); ++i) host.data()[i] = Value(values[i]);
+      Kokkos::deep_copy(view, host);
+    };
+    fill(xhat_, saved.xhat);
+    fill(xhatdot_, saved.xhatdot);
+    fill(max_condition_, saved.max_condition);
+    fill(reference_, saved.reference);
+    fill(flags_, saved.flags);
+    fill(failures_, saved.failures);
+    fill(fallbacks_, saved.fallbacks);
+    fill(regularized_, saved.regularized);
+    fill(converged_, saved.converged);
+    outcomes_ = saved.outcomes;
+  }
+
+  std::vector<RolloutOutcome> outcomes() const override {
+    std::vector<RolloutOutcome> result = outcomes_;
+    const auto condition = download(max_condition_);
+    const auto regularized = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), regularized_);
+    const auto failures = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), failures_);
+    const auto fallbacks = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), fallbacks_);
+    for (int b = 0; b < B_; ++b) {
+      result[b].max_condition = condition[b];
+      result[b].regularized_steps = regularized(b);
+      result[b].inversion_failures = failures(b);
+      result[b].inversion_fallbacks = fallbacks(b);
+    }
+    return result;
+  }
+
+ private:
+  template <class View>
+  static std::vector<int> download_ints(const View& view) {
+    const auto host = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), view);
+    return std::vector<int>(host.data(), host.data() + host.size());
+  }
+
+  static std::vector<double> output_times(const Scene& scene) {
+    std::vector<double> times{0.0};
+    for (int frame = 1; frame <= scene.num_outputs; ++frame)
+      times.push_back(scene.end_time * frame / scene.num_outputs);
+    return times;
+  }
+
+  // One time step of every rollout: sources, node velocities, sample velocities, projection (paper Algorithms 1, 2).
+  void substep(real_t t, real_t dt) {
+    const ExecutionSpace space;
+    const int B = B_, S = S_, K = K_, I = I_, r = latent_dim_;
+    // Every launch takes its functor as a kernel argument: above 512 bytes Kokkos would copy it to the GPU's constant
+    // memory instead, waiting first for the previous such kernel to finish (a host round trip per launch).
+    using LightWeight = Kokkos::Experimental::WorkItemProperty::HintLightWeight_t;
+    using Range = Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>, LightWeight>;
+    using Teams = Kokkos::TeamPolicy<ExecutionSpace, LightWeight>;
+    using PointSources = rom::MaterialPointSources<Manifold, ExecutionSpace>;
+    using Samples = rom::SampleKinematics<Manifold, ExecutionSpace>;
+    // A team per so many items, with the shape's threads and lanes and its scratch.
+    const auto teams = [&](long items, const rom::TeamShape& shape, int per_team, const rom::TeamScratch& scratch) {
+      return Teams(space, int((items + per_team - 1) / per_team), shape.threads, shape.lanes)
+          .set_scratch_size(0, Kokkos::PerTeam(scratch.bytes(shape)));
+    };
+    const auto sample_kinematics = [&](const Matrix& xhat, const Matrix& xhatdot, const Cube& positions) {
+      Kokkos::parallel_for("mpmrom::rom::sample_kinematics", teams(long(B) * S, samples_shape_, samples_shape_.threads,
+                                                                   samples_scratch_),
+                           Samples{manifold_, samples_X_, xhat, xhatdot, positions, sample_J_, samples_shape_,
+                                   samples_scratch_});
+    };
+    if (point_method_) {
+      Kokkos::parallel_for("mpmrom::rom::point_sources",
+                           teams(long(B) * K, sources_shape_, sources_shape_.items(), sources_scratch_),
+                           PointSources{manifold_, points_X_, points_mass_, points_volume_, xhat_, xhatdot_, loads_,
+                                        material_, t, dt, apic_, sources_, sample_x_, sample_J_, flags_,
+                                        sources_shape_, sources_scratch_});
+    } else {
+      sample_kinematics(xhat_, xhatdot_, sample_x_);
+      Kokkos::parallel_for("mpmrom::rom::quadrature_sources", Range(space, 0, long(B) * K),
+                           rom::QuadratureSources<Manifold, MemorySpace>{
+                               manifold_, quadrature_x_, quadrature_w_, domain_, density_, newton_,
+                               settings_.inversion_fallback, xhat_, xhatdot_, loads_, material_, t, dt, apic_,
+                               reference_, converged_, sources_, failures_, step_failures_, fallbacks_, flags_});
+      Kokkos::parallel_for("mpmrom::rom::check_inversions", Range(space, 0, B),
+                           rom::CheckInversions<MemorySpace>{step_failures_, max_failed_inversions_, flags_});
+    }
+    const rom::GatherNodeVelocities<MemorySpace> gather{grid_, nodes_, offsets_, node_sources_, sources_, loads_, t, dt,
+                                                        node_v_, host_space ? 1 : 32};
+    if (gather_across_lanes_)
+      Kokkos::parallel_for("mpmrom::rom::gather_nodes", Teams(space, int((long(B) * I + 3) / 4), 4, 32), gather);
+    else
+      Kokkos::parallel_for("mpmrom::rom::gather_nodes", Range(space, 0, long(B) * I), gather);
+    // Into a device View: only the last sub-step's speed is read (at the frame's end), so sub-steps never wait.
+    Kokkos::parallel_reduce("mpmrom::rom::g2p_samples", Range(space, 0, long(B) * S),
+                            rom::SampleVelocities<MemorySpace>{grid_, node_slot_, sample_x_, node_v_, sample_v_,
+                                                               flags_},
+                            Kokkos::Max<real_t, MemorySpace>(fastest_sample_));
+    using Projection = rom::ProjectVelocities<ExecutionSpace, MemorySpace>;
+    const auto project = [&](bool first_pass) {
+      Kokkos::parallel_for("mpmrom::rom::project",
+                           Teams(space, B, Kokkos::AUTO, projection_lanes_)
+                               .set_scratch_size(0, Kokkos::PerTeam(Projection::scratch_bytes(r))),
+                           Projection{r, sample_J_, sample_v_, xhat_, xhatdot_, xhat_next_, xhatdot_next_, guard_, dt,
+                                      first_pass, flags_, max_condition_, regularized_});
+    };
+    project(true);
+    // Re-project with J at the trial next state, so that the new state's own velocity field J(xhat_n+1) xhatdot
+    // reproduces the transferred velocities (with J(xhat_n) the manifold's curvature is counted twice).
+    for (int iteration = 0; iteration < settings_.projection_iterations; ++iteration) {
+      sample_kinematics(xhat_next_, xhatdot_next_, trial_x_);
+      project(false);
+    }
+    std::swap(xhat_, xhat_next_);
+    std::swap(xhatdot_, xhatdot_next_);
+  }
+
+  // Rollouts whose fatal flags went up in this frame stop here; the others have completed one more frame.
+  void update_outcomes(double time) {
+    const auto flags = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), flags_);
+    for (int b = 0; b < B_; ++b) {
+      RolloutOutcome& outcome = outcomes_[b];
+      const bool fatal = flags(b) & rom::fatal_flags;
+      if (fatal && !(outcome.flags & rom::fatal_flags)) {
+        outcome.stopped_at = time;
+        outcome.message = "stopped at t = " + std::to_string(time) + " s: " + describe_flags(flags(b), true);
+      }
+      if (!fatal) outcome.frames_completed = frame_ + 1;
+      outcome.flags = flags(b);
+    }
+  }
+
+  Manifold manifold_;
+  RomSettings settings_;
+  int B_, S_, I_;
+  bool point_method_;
+  int K_;
+  GridGeometry<real_t> grid_;
+  ElasticMaterial<real_t> material_;
+  bool apic_;
+  double wave_speed_, cfl_, dx_;
+  real_t density_;
+  rom::ReferenceDomain domain_;
+  int max_failed_inversions_;
+  rom::ProjectionGuard guard_;
+  rom::NewtonSettings newton_;
+  rom::TeamScratch sources_scratch_, samples_scratch_;
+  rom::TeamShape sources_shape_, samples_shape_;
+  bool gather_across_lanes_ = false;
+  int projection_lanes_ = 1;
+  real_t max_speed_ = 0;  // fastest sample at the end of the last frame, for the next frame's time step
+
+  Matrix points_X_, samples_X_, quadrature_x_;
+  Vector points_mass_, points_volume_, quadrature_w_;
+  IndexView nodes_, offsets_, node_sources_, node_slot_;
+  Kokkos::View<rom::RolloutLoads*, MemorySpace> loads_;
+  Matrix xhat_, xhatdot_, xhat_next_, xhatdot_next_;
+  rom::SourceView<MemorySpace> sources_;
+  Cube sample_x_, sample_v_, node_v_, trial_x_, reference_;
+  Quad sample_J_;
+  Kokkos::View<unsigned char**, MemorySpace> converged_;
+  Kokkos::View<int*, MemorySpace> failures_, flags_, step_failures_, fallbacks_, regularized_;
+  Vector max_condition_;
+  Kokkos::View<real_t, MemorySpace> fastest_sample_;
+};
+
+// The batch of `cases` (values in the order of `names`) of the scene file at scene_path, on the model's network, at
+// the scene's initial state projected onto the manifold. Throws std::runtime_error when the cases cannot share a
+// batch or the model does not fit the scene.
+std::unique_ptr<BatchStepperBase> create_stepper(const Model& model, const std::string& scene_path,
+                                                 const std::vector<std::string>& names,
+                                                 const std::vector<RolloutCase>& cases, const RomSettings& settings,
+                                                 const HyperReduction& reduction);
+
+// Runs the batch to its horizon, filling result's times, latent trajectories (every output frame), outcomes and
+// step timing. With a checkpoint, the batch's state and the trajectories so far are saved there (atomically) at
+// the first output frame after every checkpoint.seconds; with checkpoint.resume, a checkpoint left there by a run of
+// the same batch is read first and the run goes on from it. With comm of several ranks (each stepper a share of one
+// batch), the ranks checkpoint at the same frames, each into its own path, and resume from the latest frame they
+// all saved.
+void record_rollouts(BatchStepperBase& stepper, RomResult& result,
+                     const std::function<void(const RomProgress&)>& progress,
+                     const RolloutCheckpoint& checkpoint = {}, const std::string& identity = "",
+                     const parallel::Communicator& comm = parallel::Communicator::self());
+
+// A rollout checkpoint (HDF5, written atomically): the batch's state and the trajectories recorded so far
+// (result.xhat, result.xhatdot up to state.frame). load_rollout_checkpoint returns false when there is no file at
+// path, and throws when the file is damaged or of another batch (identity).
+void save_rollout_checkpoint(const std::string& path, const std::string& identity, const BatchState& state,
+                             const RomResult& result);
+bool load_rollout_checkpoint(const std::string& path, const std::string& identity, BatchState& state,
+                             RomResult& result);
+
+// Advances the batch from (xhat0, xhatdot0) (rollouts x r, row-major) through the scene's output times on manifold,
+// filling result's times, latent trajectories, outcomes and step timing. max_latent_speed: the energy detector's
+// limit on |xhatdot| (0: none).
+template <class Manifold>
+void step_batch(const Manifold& manifold, int latent_dim, const ReferencePoints& model, const Scene& scene,
+                const std::vector<rom::RolloutLoads>& host_loads, const std::vector<double>& xhat0,
+                const std::vector<double>& xhatdot0, const RomSettings& settings, double max_latent_speed,
+                const HyperReduction& h, RomResult& result, const std::function<void(const RomProgress&)>& progress) {
+  BatchStepper<Manifold> stepper(manifold, latent_dim, model, scene, host_loads, xhat0, xhatdot0, settings,
+                                 max_latent_speed, h);
+  record_rollouts(stepper, result, progress);
+}
+
+}  // namespace mpmrom::impl

@@ -1,0 +1,97 @@
+// The manifold the reduced model moves on, as the ROM kernels see it: any type with
+//   KOKKOS_FUNCTION int latent_dim() const;
+//   KOKKOS_FUNCTION void kinematics(const real_t X[3], const real_t* xhat, const real_t* xhatdot,
+//                                   nn::PointKinematics<real_t>& out, real_t* dgdxhat /* 3 x r or null */) const;
+//   KOKKOS_FUNCTION void position_and_gradient(const real_t X[3], const real_t* xhat, real_t g[3],
+//                                              real_t F[3][3]) const;
+// and the team interface of the batch kernels (team_shape.hpp):
+//   int team_lanes() const;                       // vector lanes one point wants
+//   TeamScratch team_scratch() const;             // scratch values: shared by the team, per thread
+//   KOKKOS_FUNCTION const real_t* team_stage(const Member&, real_t* shared) const;  // the parameters to read
+//   KOKKOS_FUNCTION void team_kinematics(const Member&, const real_t* staged, real_t* thread_scratch, bool active,
+//        const real_t X[3], const real_t* xhat, const real_t* xhatdot, bool any_jacobian,
+//        nn::PointKinematics<real_t>& out, real_t* dgdxhat) const;   // contract of nn::TeamMlpKinematics
+// MlpManifold adapts a trained network; tests plug in analytic maps, which get the team interface from
+// TeamFromSerial. Parallelism contract: value types; kinematics and position_and_gradient within one thread.
+#pragma once
+
+#include "manifold/nn/mlp_team.hpp"
+#include "rom/kernels/team_shape.hpp"
+#include "mpmrom/mpmrom_config.hpp"
+
+namespace mpmrom::rom {
+
+inline constexpr int max_latent_dim = 16;  // the r x r normal equations live in registers
+
+// The team interface of a manifold that has only the one-thread one: one lane of each team thread evaluates its point.
+template <class Manifold>
+struct TeamFromSerial {
+  int team_lanes() const { return 1; }
+  TeamScratch team_scratch() const { return TeamScratch{}; }
+  template <class Member>
+  KOKKOS_INLINE_FUNCTION const real_t* team_stage(const Member&, real_t*) const { return nullptr; }
+  template <class Member>
+  KOKKOS_INLINE_FUNCTION void team_kinematics(const Member& member, const real_t*, real_t*, bool active,
+                                              const real_t X[3], const real_t* xhat, const real_t* xhatdot, bool,
+                                              nn::PointKinematics<real_t>& out, real_t* dgdxhat) const {
+    if (active)
+      Kokkos::single(Kokkos::PerThread(member),
+                     [&]() { static_cast<const Manifold&>(*this).kinematics(X, xhat, xhatdot, out, dgdxhat); });
+    member.team_barrier();
+  }
+};
+
+template <int MaxWidth, class MemorySpace>
+struct MlpManifold {
+  nn::Mlp<real_t, MemorySpace> mlp;
+  nn::TeamMlp<real_t, MemorySpace> team;  // the same network arranged for the team kernels
+  bool stage = false;                     // the team kernels copy team.values into scratch first
+  static constexpr bool host_space = Kokkos::SpaceAccessibility<Kokkos::HostSpace, MemorySpace>::accessible;
+
+  KOKKOS_INLINE_FUNCTION int latent_dim() const { return mlp.layout.latent_dim; }
+
+  KOKKOS_INLINE_FUNCTION void kinematics(const real_t X[3], const real_t* xhat, const real_t* xhatdot,
+                                         nn::PointKinematics<real_t>& out, real_t* dgdxhat) const {
+    nn::SerialMlpKinematics<MaxWidth>(mlp, X, xhat, xhatdot, out, dgdxhat);
+  }
+
+  KOKKOS_INLINE_FUNCTION void position_and_gradient(const real_t X[3], const real_t* xhat, real_t g[3],
+                                                    real_t F[3][3]) const {
+    real_t unused[3 * max_latent_dim];
+    nn::SerialMlpForwardJacobian<MaxWidth>(mlp, X, xhat, g, F, unused);
+  }
+
+  int team_lanes() const { return nn::lanes_for_width(mlp.layout.widest); }
+  TeamScratch team_scratch() const {
+    TeamScratch scratch;
+    scratch.shared = stage ? team.arranged.size : 0;
+    scratch.per_thread = host_space ? 0 : team.thread_scratch_values();
+    return scratch;
+  }
+
+  template <class Member>
+  KOKKOS_INLINE_FUNCTION const real_t* team_stage(const Member& member, real_t* shared) const {
+    if (!stage) return team.values.data();
+    const auto values = team.values;
+    Kokkos::parallel_for(Kokkos::TeamVectorRange(member, team.arranged.size),
+                         [&](const int i) { shared[i] = values(i); });
+    member.team_barrier();
+    return shared;
+  }
+
+  template <class Member>
+  KOKKOS_INLINE_FUNCTION void team_kinematics(const Member& member, const real_t* staged, real_t* thread_scratch,
+                                              bool active, const real_t X[3], const real_t* xhat,
+                                              const real_t* xhatdot, bool any_jacobian,
+                                              nn::PointKinematics<real_t>& out, real_t* dgdxhat) const {
+    // Host teams are one thread of one lane: the one-thread evaluation, with its buffers on the stack, is faster there
+    if constexpr (host_space) {
+      if (active) kinematics(X, xhat, xhatdot, out, dgdxhat);
+    } else {
+      nn::TeamMlpKinematics(member, team, staged, thread_scratch, active, X, xhat, xhatdot, any_jacobian, out,
+                            dgdxhat);
+    }
+  }
+};
+
+}  // namespace mpmrom::rom

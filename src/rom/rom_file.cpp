@@ -1,0 +1,324 @@
+#include "rom/rom_file.hpp"
+
+#include <algorithm>
+#include <cstring>
+#include <filesystem>
+
+#include "io/atomic_file.hpp"
+#include "io/hdf5_file.hpp"
+#include "io/file_checks.hpp"
+#include "io/xdmf.hpp"
+#include "mpmrom/snapshot.hpp"
+
+namespace mpmrom {
+namespace {
+
+using impl::bad;
+
+template <class T>
+hdf5::Dataset write_dataset(hdf5::Group& group, const std::string& name, hdf5::Element type,
+                            const std::vector<T>& values, const std::vector<std::size_t>& shape) {
+  auto dataset = group.create_dataset(name, type, shape);
+  if (impl::product(shape) > 0) dataset.write(values.data());
+  return dataset;
+}
+
+// Views /xdmf/<array>/<rollout>/<frame> of the decoded fields and the side file's blocks, one per rollout (the first
+// max_xdmf_rollouts: three views per rollout and frame would swamp the file, and ParaView, for large batches), named
+// by its parameter values.
+constexpr std::size_t max_xdmf_rollouts = 64;
+
+std::vector<impl::XdmfBlock> write_decoded_views(hdf5::File& file, const RomResult& res, std::size_t num_points,
+                                                 const std::vector<const hdf5::Dataset*>& sources) {
+  const std::size_t B = std::min(res.cases.size(), max_xdmf_rollouts), frames = res.times.size();
+  hdf5::Group xdmf = file.create_group("xdmf");
+  impl::write_xdmf_vertices(xdmf, num_points);
+  for (const hdf5::Dataset* source : sources) {
+    hdf5::Group array = xdmf.create_group(source->path().substr(source->path().rfind('/') + 1));  // "x", "v", "F"
+    for (std::size_t b = 0; b < B; ++b) {
+      hdf5::Group rollout = array.create_group(std::to_string(b));
+      for (std::size_t frame = 0; frame < frames; ++frame)
+        rollout.create_entry_view(std::to_string(frame), *source, {b, frame});
+    }
+  }
+  std::vector<impl::XdmfBlock> blocks;
+  for (std::size_t b = 0; b < B; ++b) {
+    std::string name = "rollout " + std::to_string(b);
+    for (std::size_t k = 0; k < res.parameter_names.size(); ++k)
+      name += (k == 0 ? " (" : ", ") + res.parameter_names[k] + " = " + impl::number_string(res.cases[b].values[k]) +
+              (k + 1 == res.parameter_names.size() ? ")" : "");
+    const std::string at = "/" + std::to_string(b);
+    blocks.push_back({name,
+                      "/xdmf/x" + at,
+                      4,
+                      {{"velocity", 3, 4, "/xdmf/v" + at, true},
+                       {"F", 9, 4, "/xdmf/F" + at, true},
+                       {"X", 3, 8, "/decoded/X", false}}});
+  }
+  return blocks;
+}
+
+std::vector<std::int64_t> to_int64(const std::vector<int>& values) { return {values.begin(), values.end()}; }
+
+}  // namespace
+
+std::uint64_t model_checksum(const Model& model) {
+  std::uint64_t hash = 1469598103934665603ULL;
+  for (const double w : model.weights) {
+    unsigned char bytes[sizeof(double)];
+    std::memcpy(bytes, &w, sizeof(double));
+    for (const unsigned char c : bytes) hash = (hash ^ c) * 1099511628211ULL;
+  }
+  return hash;
+}
+
+void save_rom(const std::string& path, const RomFile& rom) {
+  const RomResult& res = rom.result;
+  const std::size_t B = res.cases.size(), frames = res.times.size(), r = std::size_t(res.latent_dim);
+  const std::size_t names = res.parameter_names.size();
+  if (res.xhat.size() != B * frames * r || res.xhatdot.size() != B * frames * r || res.outcomes.size() != B)
+    bad(path, "inconsistent reduced-model result (internal error)");
+  impl::require_finite(path, "xhat", res.xhat.data(), {res.xhat.size()});
+  impl::require_finite(path, "xhatdot", res.xhatdot.data(), {res.xhatdot.size()});
+  const HyperReduction& sets = rom.sets;
+  if (sets.quadrature_x.size() != 3 * sets.quadrature_weight.size() ||
+      (!sets.node_offsets.empty() && sets.node_offsets.size() != sets.nodes.size() + 1))
+    bad(path, "inconsistent hyper-reduction sets (internal error)");
+  const std::size_t n = rom.decoded_X.size() / 3;
+  if (n > 0) {
+    if (rom.decoded_x.size() != B * frames * n * 3 || rom.decoded_v.size() != B * frames * n * 3 ||
+        rom.decoded_F.size() != B * frames * n * 9)
+      bad(path, "inconsistent decoded fields (internal error)");
+    impl::require_finite(path, "decoded x", rom.decoded_x.data(), {rom.decoded_x.size()});
+    impl::require_finite(path, "decoded v", rom.decoded_v.data(), {rom.decoded_v.size()});
+    impl::require_finite(path, "decoded F", rom.decoded_F.data(), {rom.decoded_F.size()});
+  }
+  if (n > 0 && xdmf_path_for(path) == path)
+    bad(path, "a ROM file cannot have the extension .xmf of its XDMF side file");
+  AtomicFile out(path);
+  std::vector<impl::XdmfBlock> blocks;
+  {
+    hdf5::File file = hdf5::File::create(out.temporary_path());
+    impl::write_file_identity(file, rom_format, rom_format_version);
+    file.set_string_attribute("scene_name", rom.scene_name);
+    file.set_string_attribute("scene", rom.scene_text);
+    file.set_string_attribute("model_path", rom.model_path);
+    file.set_string_attribute("model_checksum", std::to_string(rom.model_checksum));
+    file.set_string_attribute("settings", rom.settings.dump());
+    file.set_string_attribute("hyper_reduction", rom.hyper_reduction.dump());
+    file.set_string_attribute("timing", rom.timing.dump());
+
+    hdf5::Group parameters = file.create_group("parameters");
+    parameters.set_string_list_attribute("names", res.parameter_names);
+    std::vector<double> values;
+    std::vector<std::string> splits;
+    for (const auto& c : res.cases) {
+      values.insert(values.end(), c.values.begin(), c.values.end());
+      splits.push_back(c.split);
+    }
+    parameters.create_string_list("split", splits);
+    write_dataset(parameters, "values", hdf5::Element::float64, values, {B, names});
+
+    hdf5::Group latent = file.create_group("latent");
+    latent.set_integer_attribute("steps", res.steps);
+    write_dataset(latent, "time", hdf5::Element::float64, res.times, {frames});
+    write_dataset(latent, "xhat", hdf5::Element::float64, res.xhat, {B, frames, r});
+    write_dataset(latent, "xhatdot", hdf5::Element::float64, res.xhatdot, {B, frames, r});
+
+    hdf5::Group outcome = file.create_group("outcome");
+    std::vector<std::int64_t> flags, completed, regularized, failures, fallbacks;
+    std::vector<double> condition, stopped;
+    std::vector<std::string> messages, warnings;
+    for (const auto& o : res.outcomes) {
+      flags.push_back(o.flags);
+      completed.push_back(o.frames_completed);
+      regularized.push_back(o.regularized_steps);
+      failures.push_back(o.inversion_failures);
+      fallbacks.push_back(o.inversion_fallbacks);
+      warnings.push_back(o.warning);
+      condition.push_back(o.max_condition);
+      stopped.push_back(o.stopped_at);
+      messages.push_back(o.message);
+    }
+    outcome.create_string_list("messages", messages);
+    outcome.create_string_list("warnings", warnings);
+    write_dataset(outcome, "flags", hdf5::Element::int64, flags, {B});
+    write_dataset(outcome, "frames_completed", hdf5::Element::int64, completed, {B});
+    write_dataset(outcome, "regularized_steps", hdf5::Element::int64, regularized, {B});
+    write_dataset(outcome, "inversion_failures", hdf5::Element::int64, failures, {B});
+    write_dataset(outcome, "inversion_fallbacks", hdf5::Element::int64, fallbacks, {B});
+    write_dataset(outcome, "max_condition", hdf5::Element::float64, condition, {B});
+    write_dataset(outcome, "stopped_at", hdf5::Element::float64, stopped, {B});
+
+    hdf5::Group samples = file.create_group("samples");
+    write_dataset(samples, "indices", hdf5::Element::int64, to_int64(rom.samples), {rom.samples.size()});
+
+    hdf5::Group reduction = file.create_group("hyper_reduction");
+    write_dataset(reduction, "source_points", hdf5::Element::int64, to_int64(sets.source_points),
+                  {sets.source_points.size()});
+    write_dataset(reduction, "nodes", hdf5::Element::int64, to_int64(sets.nodes), {sets.nodes.size()});
+    write_dataset(reduction, "node_offsets", hdf5::Element::int64, to_int64(sets.node_offsets),
+                  {sets.node_offsets.size()});
+    write_dataset(reduction, "node_sources", hdf5::Element::int64, to_int64(sets.node_sources),
+                  {sets.node_sources.size()});
+    write_dataset(reduction, "quadrature_x", hdf5::Element::float64, sets.quadrature_x,
+                  {sets.quadrature_weight.size(), 3});
+    write_dataset(reduction, "quadrature_weight", hdf5::Element::float64, sets.quadrature_weight,
+                  {sets.quadrature_weight.size()});
+
+    if (n > 0) {
+      hdf5::Group decoded = file.create_group("decoded");
+      write_dataset(decoded, "X", hdf5::Element::float64, rom.decoded_X, {n, 3});
+      const std::vector<float> x(rom.decoded_x.begin(), rom.decoded_x.end());
+      const std::vector<float> v(rom.decoded_v.begin(), rom.decoded_v.end());
+      const std::vector<float> F(rom.decoded_F.begin(), rom.decoded_F.end());
+      const auto x_set = write_dataset(decoded, "x", hdf5::Element::float32, x, {B, frames, n, 3});
+      const auto v_set = write_dataset(decoded, "v", hdf5::Element::float32, v, {B, frames, n, 3});
+      const auto F_set = write_dataset(decoded, "F", hdf5::Element::float32, F, {B, frames, n, 3, 3});
+      blocks = write_decoded_views(file, res, n, {&x_set, &v_set, &F_set});
+    }
+    file.set_integer_attribute("complete", 1);
+  }
+  if (n == 0) {
+    out.commit();
+    return;
+  }
+  // Decoded fields get an XDMF side file (ParaView opens the batch as a time series, a block per rollout); it goes
+  // first, so that a ROM file under its final name always has it.
+  const std::string h5_name = std::filesystem::path(path).filename().string();
+  write_file_atomically(xdmf_path_for(path),
+                        impl::xdmf_text(h5_name, rom.scene_name + " (reduced model)", n, res.times, blocks));
+  out.commit();
+}
+
+RomFile load_rom(const std::string& path) {
+  std::error_code error;
+  if (!std::filesystem::is_regular_file(path, error)) bad(path, "no such file");
+  const hdf5::File file = hdf5::File::open(path);
+  if (!file.has_attribute("format") || file.string_attribute("format") != rom_format)
+    bad(path, "not an mpmrom reduced-model (ROM) file");
+  const auto version = file.integer_attribute("format_version");
+  // Versions 1 and 2 store variable-length string attributes (refused by the HDF5 layer unless trusted); version 1
+  // also keeps the per-rollout strings as attributes.
+  if (version < 1 || version > rom_format_version)
+    bad(path, "ROM format version " + std::to_string(version) + " is not supported (this build reads versions 1 to " +
+                  std::to_string(rom_format_version) + ")");
+  if (!file.has_attribute("complete") || file.integer_attribute("complete") != 1) bad(path, "incomplete ROM file");
+  for (const char* group : {"parameters", "latent", "outcome", "samples"})
+    if (!file.has_child(group)) bad(path, std::string("missing group /") + group);
+  RomFile rom;
+  rom.scene_name = file.string_attribute("scene_name");
+  rom.scene_text = file.string_attribute("scene");
+  rom.model_path = file.string_attribute("model_path");
+  try {
+    rom.model_checksum = std::stoull(file.string_attribute("model_checksum"));
+    rom.settings = nlohmann::json::parse(file.string_attribute("settings"));
+    rom.hyper_reduction = nlohmann::json::parse(file.string_attribute("hyper_reduction"));
+    rom.timing = nlohmann::json::parse(file.string_attribute("timing"));
+  } catch (const std::exception&) {
+    bad(path, "the model checksum, settings, hyper_reduction or timing attribute is malformed");
+  }
+  RomResult& res = rom.result;
+  const hdf5::Group parameters = file.group("parameters");
+  res.parameter_names = parameters.string_list_attribute("names");
+  // Version 1 kept the per-rollout strings in attributes, which HDF5 caps at 64 kB (about 10^4 rollouts).
+  const auto per_rollout_strings = [&](const hdf5::Group& group, const std::string& name) {
+    return version == 1 ? group.string_list_attribute(name) : group.dataset(name).read_strings();
+  };
+  const auto splits = per_rollout_strings(parameters, "split");
+  const std::size_t B = splits.size(), names = res.parameter_names.size();
+  const auto values = impl::read_checked(path, parameters.dataset("values"), {B, names}, "(rollouts, parameters)");
+  for (std::size_t b = 0; b < B; ++b)
+    res.cases.push_back({std::vector<double>(values.begin() + b * names, values.begin() + (b + 1) * names), splits[b]});
+
+  const hdf5::Group latent = file.group("latent");
+  res.steps = latent.integer_attribute("steps");
+  const auto time_shape = latent.dataset("time").shape();
+  if (time_shape.size() != 1 || time_shape[0] == 0) bad(path, "/latent/time must be a non-empty vector");
+  const std::size_t frames = time_shape[0];
+  res.times = impl::read_checked(path, latent.dataset("time"), {frames}, "");
+  const auto xhat_shape = latent.dataset("xhat").shape();
+  if (xhat_shape.size() != 3 || xhat_shape[0] != B || xhat_shape[1] != frames || xhat_shape[2] < 1)
+    bad(path, "/latent/xhat has shape " + impl::shape_string(xhat_shape) + ", expected (rollouts, frames, r)");
+  const std::size_t r = xhat_shape[2];
+  res.latent_dim = int(r);
+  res.xhat = impl::read_checked(path, latent.dataset("xhat"), {B, frames, r}, "");
+  res.xhatdot = impl::read_checked(path, latent.dataset("xhatdot"), {B, frames, r}, "(like xhat)");
+
+  const hdf5::Group outcome = file.group("outcome");
+  const auto messages = per_rollout_strings(outcome, "messages");
+  if (messages.size() != B) bad(path, "/outcome messages: one per rollout expected");
+  const auto flags = impl::read_checked(path, outcome.dataset("flags"), {B}, "(one per rollout)");
+  const auto completed = impl::read_checked(path, outcome.dataset("frames_completed"), {B}, "(one per rollout)");
+  const auto regularized = impl::read_checked(path, outcome.dataset("regularized_steps"), {B}, "(one per rollout)");
+  const auto failures = impl::read_checked(path, outcome.dataset("inversion_failures"), {B}, "(one per rollout)");
+  const auto condition = impl::read_checked(path, outcome.dataset("max_condition"), {B}, "(one per rollout)");
+  const auto stopped = impl::read_checked(path, outcome.dataset("stopped_at"), {B}, "(one per rollout)");
+  // Files written before the stability safeguards have no warnings or fallbacks: none to report.
+  std::vector<std::string> warnings(B);
+  if (version > 1 || outcome.has_attribute("warnings")) warnings = per_rollout_strings(outcome, "warnings");
+  if (warnings.size() != B) bad(path, "/outcome warnings: one per rollout expected");
+  std::vector<double> fallbacks(B, 0.0);
+  if (outcome.has_child("inversion_fallbacks"))
+    fallbacks = impl::read_checked(path, outcome.dataset("inversion_fallbacks"), {B}, "(one per rollout)");
+  const auto flag_bits = impl::checked_integers<int>(path, "/outcome/flags", flags, 0);
+  const auto frames_done = impl::checked_integers<int>(path, "/outcome/frames_completed", completed, 0, double(frames));
+  const auto regularized_steps = impl::checked_integers<long>(path, "/outcome/regularized_steps", regularized, 0);
+  const auto failed_inversions = impl::checked_integers<long>(path, "/outcome/inversion_failures", failures, 0);
+  const auto inversion_fallbacks = impl::checked_integers<long>(path, "/outcome/inversion_fallbacks", fallbacks, 0);
+  for (std::size_t b = 0; b < B; ++b) {
+    RolloutOutcome o;
+    o.flags = flag_bits[b];
+    o.frames_completed = frames_done[b];
+    o.regularized_steps = regularized_steps[b];
+    o.inversion_failures = failed_inversions[b];
+    o.max_condition = condition[b];
+    o.stopped_at = stopped[b];
+    o.message = messages[b];
+    o.warning = warnings[b];
+    o.inversion_fallbacks = inversion_fallbacks[b];
+    res.outcomes.push_back(o);
+  }
+  const hdf5::Group samples = file.group("samples");
+  const auto sample_shape = samples.dataset("indices").shape();
+  if (sample_shape.size() != 1) bad(path, "/samples/indices must be a vector");
+  rom.samples = impl::checked_integers<int>(
+      path, "/samples/indices", impl::read_checked(path, samples.dataset("indices"), sample_shape, ""), 0);
+  if (file.has_child("hyper_reduction")) {  // absent in files written before it existed
+    const hdf5::Group reduction = file.group("hyper_reduction");
+    const auto indices = [&](const char* name) {
+      const auto shape = reduction.dataset(name).shape();
+      if (shape.size() != 1) bad(path, std::string("/hyper_reduction/") + name + " must be a vector");
+      return impl::checked_integers<int>(path, std::string("/hyper_reduction/") + name,
+                                         impl::read_checked(path, reduction.dataset(name), shape, ""), 0);
+    };
+    HyperReduction& sets = rom.sets;
+    sets.samples = rom.samples;
+    sets.source_points = indices("source_points");
+    sets.nodes = indices("nodes");
+    sets.node_offsets = indices("node_offsets");
+    sets.node_sources = indices("node_sources");
+    const auto weight_shape = reduction.dataset("quadrature_weight").shape();
+    if (weight_shape.size() != 1) bad(path, "/hyper_reduction/quadrature_weight must be a vector");
+    sets.quadrature_weight = impl::read_checked(path, reduction.dataset("quadrature_weight"), weight_shape, "");
+    sets.quadrature_x = impl::read_checked(path, reduction.dataset("quadrature_x"), {weight_shape[0], 3},
+                                           "(quadrature points, 3)");
+    if (!sets.node_offsets.empty() &&
+        (sets.node_offsets.size() != sets.nodes.size() + 1 || sets.node_offsets.front() != 0 ||
+         std::size_t(sets.node_offsets.back()) != sets.node_sources.size()))
+      bad(path, "/hyper_reduction/node_offsets does not match nodes and node_sources");
+  }
+  if (file.has_child("decoded")) {
+    const hdf5::Group decoded = file.group("decoded");
+    const auto X_shape = decoded.dataset("X").shape();
+    if (X_shape.size() != 2 || X_shape[1] != 3) bad(path, "/decoded/X must have shape (points, 3)");
+    const std::size_t n = X_shape[0];
+    rom.decoded_X = impl::read_checked(path, decoded.dataset("X"), {n, 3}, "");
+    rom.decoded_x = impl::read_checked(path, decoded.dataset("x"), {B, frames, n, 3}, "");
+    rom.decoded_v = impl::read_checked(path, decoded.dataset("v"), {B, frames, n, 3}, "");
+    rom.decoded_F = impl::read_checked(path, decoded.dataset("F"), {B, frames, n, 3, 3}, "");
+  }
+  return rom;
+}
+
+}  // namespace mpmrom
