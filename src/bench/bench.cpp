@@ -2,8 +2,6 @@
 
 #include <chrono>
 
-#include "mpmrom/runtime.hpp"
-
 namespace mpmrom {
 
 FomBenchmark bench_fom(const Scene& scene, P2GStrategy strategy, const P2GTiling& tiling, ParticleOrder order,
@@ -26,19 +24,6 @@ FomBenchmark bench_fom(const Scene& scene, P2GStrategy strategy, const P2GTiling
   result.particle_bytes = sizeof(real_t) * particle_reals * double(result.particles);
   result.grid_bytes = sizeof(real_t) * (4 + 4 + 4) * double(result.grid_nodes);
   return result;
-}
-
-nlohmann::json benchmark_record(const std::string& benchmark, const std::string& scene) {
-  const RuntimeInfo info = runtime_info();
-  return {{"benchmark", benchmark},
-          {"scene", scene},
-          {"device", info.device},
-          {"backend", info.backend},
-          {"threads", info.threads},
-          {"precision", info.precision},
-          {"kokkos_version", info.kokkos_version},
-          {"mpmrom_version", info.version},
-          {"git_commit", info.git_commit}};
 }
 
 }  // namespace mpmrom

@@ -16,7 +16,7 @@
 #include "manifold/nn/mlp.hpp"
 #include "manifold/nn/mlp_train.hpp"
 #include "mpmrom/mpmrom_config.hpp"
-#include "bench/bench.hpp"
+#include "manifold/bench_nn.hpp"
 #include "manifold/device_data.hpp"
 #include "manifold/detail/pca.hpp"
 

@@ -12,7 +12,7 @@
 #include <stdexcept>
 
 #include "io/atomic_file.hpp"
-#include "bench/bench.hpp"
+#include "core/benchmark_record.hpp"
 #include "studies/charts.hpp"
 #include "analysis/evaluation.hpp"
 #include "snapshots/simulate.hpp"

@@ -13,11 +13,11 @@
 #include <sstream>
 
 #include "io/atomic_file.hpp"
-#include "bench/bench.hpp"
+#include "core/benchmark_record.hpp"
 #include "studies/charts.hpp"
 #include "analysis/evaluation.hpp"
 #include "fom/fom.hpp"
-#include "rom/detail/rom_stepper.hpp"
+#include "rom/outcome.hpp"
 #include "rom/kernels/projection.hpp"
 #include "mpmrom/snapshot.hpp"
 

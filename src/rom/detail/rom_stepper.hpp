@@ -17,6 +17,7 @@
 #include "fom/fom.hpp"
 #include "manifold/device_data.hpp"
 #include "rom/kernels/projection.hpp"
+#include "rom/outcome.hpp"
 #include "rom/kernels/sources.hpp"
 #include "rom/kernels/transfer.hpp"
 #include "core/parallel.hpp"
@@ -36,8 +37,6 @@ struct ReferencePoints {
 rom::RolloutLoads loads_for_scene(const Scene& scene, const ReferencePoints& points);
 // The scene's bodies as the reference solid of Algorithm 2.
 rom::ReferenceDomain reference_domain(const Scene& scene);
-// One line naming the causes behind fatal rollout flags; with_remedies adds what to change for each, in brackets.
-std::string describe_flags(int flags, bool with_remedies = false);
 // Sets the scene's horizon to end_time rounded to whole output intervals, keeping the interval (--end-time).
 void apply_horizon(Scene& scene, double end_time);
 
