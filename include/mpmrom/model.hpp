@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "manifold/nn/mlp.hpp"
+#include "mpmrom/network.hpp"
 
 namespace mpmrom {
 

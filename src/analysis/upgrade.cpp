@@ -8,6 +8,7 @@
 #include "mpmrom/mpmrom_config.hpp"
 #include "rom/rom_file.hpp"
 #include "mpmrom/snapshot.hpp"
+#include "snapshots/snapshot_writer.hpp"
 
 namespace mpmrom {
 namespace {

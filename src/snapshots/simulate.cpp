@@ -12,6 +12,7 @@
 #include "io/atomic_file.hpp"
 #include "core/parallel.hpp"
 #include "mpmrom/snapshot.hpp"
+#include "snapshots/snapshot_writer.hpp"
 
 namespace mpmrom {
 namespace {

@@ -1,4 +1,5 @@
 #include "mpmrom/snapshot.hpp"
+#include "snapshots/snapshot_writer.hpp"
 
 #include <cerrno>
 #include <cmath>
