@@ -1,0 +1,41 @@
+// A subcommand of the mpmrom program: each adds itself and its options to the parser (one file each) and runs
+// when chosen. main.cpp holds the global options, the MPI and Kokkos sessions, and the error handling.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+#include <functional>
+#include <vector>
+
+#include "core/parallel.hpp"
+
+namespace mpmrom::cli {
+
+// What a command sees when it runs.
+struct Context {
+  bool quiet = false;
+  const parallel::Communicator& world;
+  int argc = 0;
+  char** argv = nullptr;
+};
+
+struct Command {
+  CLI::App* app = nullptr;                 // parsed() tells whether it was chosen
+  std::function<bool()> shares_work;       // runs under mpirun, sharing its work among the ranks (docs/mpi.md)
+  std::function<int(const Context&)> run;  // the exit status
+};
+using Commands = std::vector<Command>;
+
+// In the order `mpmrom --help` lists them.
+void add_info(CLI::App& app, Commands& commands);
+void add_simulate(CLI::App& app, Commands& commands);
+void add_sweep(CLI::App& app, Commands& commands);
+void add_train(CLI::App& app, Commands& commands);
+void add_rollout(CLI::App& app, Commands& commands);
+void add_evaluate(CLI::App& app, Commands& commands);
+void add_upgrade(CLI::App& app, Commands& commands);
+void add_stability(CLI::App& app, Commands& commands);
+void add_pipeline(CLI::App& app, Commands& commands);
+void add_bench(CLI::App& app, Commands& commands);
+
+}  // namespace mpmrom::cli

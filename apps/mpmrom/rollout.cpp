@@ -1,0 +1,236 @@
+// mpmrom rollout: a batch of reduced rollouts -> ROM.h5 (docs/rom.md).
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/benchmark_record.hpp"
+#include "io/atomic_file.hpp"
+#include "mpmrom/model.hpp"
+#include "rom/rom_file.hpp"
+#include "scene/sampling.hpp"
+#include "mpmrom/training_data.hpp"
+
+#include "command.hpp"
+#include "common.hpp"
+
+namespace mpmrom::cli {
+namespace {
+
+struct Options {
+  std::string model_path, scene_path;
+  RomSettings rom_settings;
+  std::string rom_method = "point", rom_selection = "greedy", params_path, rom_path, decode_mode = "none";
+  std::vector<std::string> rom_data;
+  double decode_spacing = 0;
+  bool rollout_json = false;
+  RolloutCheckpoint rollout_checkpoint;
+};
+
+// o is a copy: the run completes its settings.
+int run(Options o, const Context& context) {
+  const bool quiet = context.quiet;
+  const auto& world = context.world;
+  mpmrom::require_writable_output(o.rom_path);
+  o.rom_settings.method = mpmrom::rom_method_from_string(o.rom_method);
+  o.rom_settings.selection = mpmrom::sample_selection_from_string(o.rom_selection);
+  o.rom_settings.validate();
+  const mpmrom::Model model = mpmrom::load_model(o.model_path);
+  const mpmrom::Scene scene = mpmrom::load_scene(o.scene_path);
+  std::vector<std::string> names;
+  const auto cases = rollout_cases(scene, o.params_path, names);
+  mpmrom::TrainingData data;
+  if (!o.rom_data.empty()) data = mpmrom::load_training_data(o.rom_data);
+  const auto samples = mpmrom::select_samples(model, scene, o.rom_settings, o.rom_data.empty() ? nullptr : &data);
+  const auto reduction = mpmrom::build_hyper_reduction(model, scene, o.rom_settings, samples);
+  if (!quiet)
+    std::cerr << "mpmrom rollout: " << cases.size() << " rollout(s)"
+              << (world.size() > 1 ? " over " + std::to_string(world.size()) + " processes" : std::string())
+              << ", method " << o.rom_method << ", " << reduction.summary().dump() << "\n";
+  o.rollout_checkpoint.path = o.rom_path + ".ckpt";
+  const std::string own_checkpoint =
+      mpmrom::rank_checkpoint_path(o.rollout_checkpoint.path, world.rank(), world.size());
+  const auto remove_checkpoint = [&own_checkpoint]() {
+    std::error_code ignored;
+    std::filesystem::remove(own_checkpoint, ignored);
+    std::filesystem::remove(own_checkpoint + ".prev", ignored);
+  };
+  const auto result = mpmrom::run_rollouts(
+      world, model, o.scene_path, names, cases, o.rom_settings, reduction,
+      [quiet, rollouts = cases.size()](const mpmrom::RomProgress& p) {
+        if (quiet || (!every_progress_line() && p.frame % std::max(1, p.frames / 5) != 0)) return;
+        const double rate = p.seconds > 0 ? double(p.steps) * double(rollouts) / p.seconds : 0;
+        const double left = p.frame > 0 ? p.seconds * (p.frames - p.frame) / p.frame : 0;
+        std::fprintf(stderr, "  frame %d/%d  t = %.4f s  %ld steps  %.3g rollout-steps/s  %s left\n", p.frame, p.frames,
+                     p.time, p.steps, rate, duration_string(left).c_str());
+      },
+      o.rollout_checkpoint);
+  if (!world.is_root()) {  // rank 0 writes the batch; the checkpoints go once it is written
+    world.barrier();
+    remove_checkpoint();
+    return 0;
+  }
+  mpmrom::RomFile file;
+  file.result = result;
+  file.model_path = std::filesystem::absolute(o.model_path).string();
+  file.model_checksum = mpmrom::model_checksum(model);
+  file.scene_name = scene.name;
+  file.scene_text = scene.source_text;
+  file.settings = o.rom_settings.to_json();
+  file.hyper_reduction = reduction.summary();
+  file.samples = reduction.samples;
+  file.sets = reduction;
+  const double rollout_steps = double(result.steps) * double(cases.size());
+  const double simulated = result.times.empty() ? 0.0 : result.times.back() - result.times.front();
+  file.timing = {{"steps", result.steps},
+                 {"simulated_seconds", simulated},
+                 // the cost users compare with the FOM's: wall time per simulated second, per rollout
+                 {"rom_seconds_per_simulated_second",
+                  simulated > 0 ? result.step_seconds / (simulated * double(cases.size())) : 0.0},
+                 {"rollouts", cases.size()},
+                 {"setup_seconds", result.setup_seconds},
+                 {"step_seconds_total", result.step_seconds},
+                 {"rom_step_seconds", result.steps > 0 ? result.step_seconds / result.steps : 0.0},
+                 {"rom_rollout_steps_per_s", result.step_seconds > 0 ? rollout_steps / result.step_seconds : 0.0}};
+  if (o.decode_mode != "none") {
+    if (o.decode_mode == "reference") {
+      file.decoded_X = model.X;
+    } else if (o.decode_mode == "lattice") {
+      if (!(o.decode_spacing > 0)) throw std::invalid_argument("--decode lattice needs --decode-spacing > 0");
+      for (const auto& body : scene.bodies)
+        for (const auto& p : mpmrom::lattice_points(body, o.decode_spacing))
+          file.decoded_X.insert(file.decoded_X.end(), p.begin(), p.end());
+    } else {
+      throw std::invalid_argument("--decode must be none, reference or lattice, not '" + o.decode_mode + "'");
+    }
+    const std::size_t frames = result.times.size(), r = std::size_t(result.latent_dim);
+    for (std::size_t b = 0; b < cases.size(); ++b) {
+      const std::vector<double> xhat(result.xhat.begin() + b * frames * r, result.xhat.begin() + (b + 1) * frames * r);
+      const std::vector<double> xhatdot(result.xhatdot.begin() + b * frames * r,
+                                        result.xhatdot.begin() + (b + 1) * frames * r);
+      const auto fields = mpmrom::decode(model, file.decoded_X, xhat, xhatdot);
+      file.decoded_x.insert(file.decoded_x.end(), fields.x.begin(), fields.x.end());
+      file.decoded_v.insert(file.decoded_v.end(), fields.v.begin(), fields.v.end());
+      file.decoded_F.insert(file.decoded_F.end(), fields.F.begin(), fields.F.end());
+    }
+  }
+  mpmrom::save_rom(o.rom_path, file);
+  world.barrier();
+  remove_checkpoint();
+  int failed = 0;
+  for (std::size_t b = 0; b < cases.size(); ++b) {
+    const auto& o = result.outcomes[b];
+    if (!o.warning.empty()) std::cerr << "mpmrom rollout: warning: rollout " << b << ": " << o.warning << "\n";
+    if (!o.message.empty()) {
+      ++failed;
+      std::cerr << "mpmrom rollout: rollout " << b << " " << o.message << "\n";
+    }
+  }
+  if (!quiet) {
+    double worst = 0;
+    long regularized = 0, inversion = 0;
+    for (const auto& o : result.outcomes) {
+      worst = std::max(worst, o.max_condition);
+      regularized += o.regularized_steps;
+      inversion += o.inversion_failures;
+    }
+    std::fprintf(stderr,
+                 "mpmrom rollout: wrote %s: %zu rollouts x %ld steps in %.3f s (%.3g s per step, %.3g "
+                 "rollout-steps/s); largest normal-equation condition estimate %.3g, %ld regularised steps, "
+                 "%ld failed inversions\n",
+                 o.rom_path.c_str(), cases.size(), result.steps, result.step_seconds,
+                 file.timing["rom_step_seconds"].get<double>(), file.timing["rom_rollout_steps_per_s"].get<double>(),
+                 worst, regularized, inversion);
+  }
+  if (o.rollout_json) {
+    auto record = mpmrom::benchmark_record("rom_rollout", scene.name);
+    record["particles"] = model.num_points();
+    record["model"] = o.model_path;
+    record["latent_dim"] = model.latent_dim;
+    record["settings"] = file.settings;
+    record["hyper_reduction"] = file.hyper_reduction;
+    for (const auto& [key, value] : file.timing.items()) record[key] = value;
+    std::cout << record.dump() << "\n";
+  }
+  if (failed > 0) return 3;
+  return 0;
+}
+
+}  // namespace
+
+void add_rollout(CLI::App& app, Commands& commands) {
+  auto o = std::make_shared<Options>();
+  auto* command = app.add_subcommand("rollout", "Run the reduced model: one or many rollouts in one batch -> ROM.h5");
+  command->add_option("model", o->model_path, "Model file (from mpmrom train)")->required()->check(CLI::ExistingFile);
+  command->add_option("scene", o->scene_path, "Scene file (TOML) the model was trained on")
+      ->required()
+      ->check(CLI::ExistingFile);
+  command->add_option("--out", o->rom_path, "ROM file to write (HDF5)")->required();
+  command->add_option("--method", o->rom_method, "point (Algorithm 1, material-point-centric) or node (Algorithm 2)")
+      ->capture_default_str();
+  command->add_option("--samples", o->rom_settings.samples, "Sample material points for the projection; 0: all points")
+      ->capture_default_str();
+  command
+      ->add_option("--selection", o->rom_selection,
+                   "Sample selection: greedy (from the model's stored ranking, or refitted to --data), region or "
+                   "random")
+      ->capture_default_str();
+  command->add_option("--data", o->rom_data,
+                      "Full-order training runs (sweep directory) to refit --selection greedy to");
+  command->add_option("--seed", o->rom_settings.seed, "Seed of --selection random")->capture_default_str();
+  command->add_option("--params", o->params_path, "Parameter file (design.csv form); default: the scene's design")
+      ->check(CLI::ExistingFile);
+  command
+      ->add_option(
+          "--cfl", o->rom_settings.cfl,
+          "Time step as a fraction of the CFL limit, up to 10 (0: the scene's; above 1 the FOM would be unstable)")
+      ->capture_default_str();
+  command
+      ->add_option("--end-time", o->rom_settings.end_time,
+                   "Horizon (s), rounded to whole output intervals of the scene (0: the scene's end time)")
+      ->capture_default_str();
+  command->add_option("--margin", o->rom_settings.envelope_margin, "Cells of slack around the training motion")
+      ->capture_default_str();
+  command->add_option("--quadrature", o->rom_settings.quadrature_order, "Algorithm 2: Gauss points per axis per cell")
+      ->capture_default_str();
+  command->add_option("--newton-tolerance", o->rom_settings.newton_tolerance, "Algorithm 2: inversion tolerance, cells")
+      ->capture_default_str();
+  command
+      ->add_option("--projection-iterations", o->rom_settings.projection_iterations,
+                   "Re-projections with dg/dxhat at the trial next state (0: the paper's, at xhat(t_n))")
+      ->capture_default_str();
+  command->add_option("--max-condition", o->rom_settings.max_condition,
+                      "Condition estimate of the normal equations above which they are regularised (0: 0.01/epsilon)");
+  command->add_flag("!--no-regularize", o->rom_settings.regularize,
+                    "Stop a rollout at an ill-conditioned projection instead of regularising it");
+  command->add_flag("!--no-inversion-fallback", o->rom_settings.inversion_fallback,
+                    "Algorithm 2: drop a quadrature point whose inversion failed, without retrying");
+  command
+      ->add_option("--max-failed-inversions", o->rom_settings.max_failed_inversions,
+                   "Algorithm 2: stop when more than this fraction of the quadrature points fails in a step")
+      ->capture_default_str();
+  command
+      ->add_option("--energy-growth", o->rom_settings.energy_growth,
+                   "Stop when |dxhat/dt| exceeds this times the fastest training motion (0: no check)")
+      ->capture_default_str();
+  command
+      ->add_option("--decode", o->decode_mode,
+                   "Decoded fields to store: none, reference (the model's points) or lattice (--decode-spacing)")
+      ->capture_default_str();
+  command->add_option("--decode-spacing", o->decode_spacing, "Lattice spacing (m) of --decode lattice");
+  command->add_flag("--json", o->rollout_json, "Print a benchmark record (timings, hyper-reduction) on stdout");
+  command
+      ->add_option("--checkpoint-seconds", o->rollout_checkpoint.seconds,
+                   "Seconds between checkpoints (ROM.h5.ckpt, at output frames)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
+  command->add_flag("--resume", o->rollout_checkpoint.resume,
+                    "Continue from ROM.h5.ckpt, left by a run that was stopped");
+  command->footer("Example: mpmrom rollout poke_model.h5 scenes/poke_cylinder.toml --out rom.h5 --method node");
+  commands.push_back({command, [] { return true; }, [o](const Context& context) { return run(*o, context); }});
+}
+
+}  // namespace mpmrom::cli
