@@ -20,7 +20,7 @@
 #include "mpmrom/model.hpp"
 #include "mpmrom/mpmrom_config.hpp"
 #include "core/parallel.hpp"
-#include "pushed_block.hpp"
+#include "fixtures.hpp"
 #include "mpmrom/rom.hpp"
 #include "fom/fom.hpp"
 #include "snapshots/simulate.hpp"

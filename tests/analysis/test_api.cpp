@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "mpmrom/model.hpp"
-#include "pushed_block.hpp"
+#include "fixtures.hpp"
 #include "mpmrom/rollout_batch.hpp"
 #include "rom/rom_file.hpp"
 #include "analysis/evaluation.hpp"

@@ -3,42 +3,14 @@
 #include <stdexcept>
 
 #include "backends.hpp"
-#include "fom/fom.hpp"
+#include "fixtures.hpp"
 #include "scene/sampling.hpp"
 #include "mpmrom/scene.hpp"
 
 namespace mpmrom::test {
 namespace {
 
-const std::string kValid = R"(
-name = "valid"
-[parameters]
-force = 2.0
-[material]
-youngs_modulus = 1e4
-poisson_ratio = 0.3
-density = 100.0
-[[body]]
-shape = "box"
-center = [0.0, 0.0, 0.0]
-size = [0.2, 0.2, 0.2]
-spacing = 0.05
-[grid]
-lo = [-1.0, -1.0, -1.0]
-hi = [1.0, 1.0, 1.0]
-dx = 0.1
-[[force]]
-lo = [-1.0, -1.0, 0.05]
-hi = [1.0, 1.0, 1.0]
-magnitude = "$force"
-theta_deg = 90.0
-phi_deg = 0.0
-[time]
-end_time = 0.1
-[design]
-force = [1.0, 2.0]
-test = [1]
-)";
+const std::string kValid = fixture_text("box_under_force.toml");
 
 // The error message of parsing `text`, or "" if it parsed.
 std::string error_of(const std::string& text, const std::vector<std::string>& overrides = {}) {
@@ -172,18 +144,6 @@ TEST(Scene, CountsMustBeWholeNumbersInRange) {
             "scene scene.toml [[body]] 1: seed must be a whole number in [0, 4294967295], not -1");
   EXPECT_EQ(error_of(replace(kValid, "test = [1]", "test = [1e30]")),
             "scene scene.toml [design]: each test run index must be a whole number in [0, 1], not 1e+30");
-}
-
-// Sizes derived from a scene's numbers are counted in doubles and refused before any int conversion: 1e10 cells
-// along x alone would overflow it.
-TEST(Scene, GridOfMoreNodesThanAnIntHoldsIsRefused) {
-  const Scene scene = parse_scene(kValid, "scene.toml", {"grid.hi=[1e9, 1.0, 1.0]"});
-  try {
-    (void)grid_for_scene(scene);
-    ADD_FAILURE() << "a grid of 1e10 cells along x was accepted";
-  } catch (const std::runtime_error& error) {
-    EXPECT_EQ(std::string(error.what()), "the grid would have more than 2e9 nodes; enlarge dx or shrink the domain");
-  }
 }
 
 }  // namespace

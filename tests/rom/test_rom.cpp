@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "backends.hpp"
+#include "fixtures.hpp"
 #include "fom/fom.hpp"
 #include "rom/detail/rom_stepper.hpp"
 #include "manifold/nn/mlp_kinematics.hpp"
@@ -243,28 +244,8 @@ struct AffineManifold : rom::TeamFromSerial<AffineManifold> {
 // A box translating and spinning with negligible stiffness (stress ~1e-6 Pa: its effect over the run, ~1e-9 m, is far
 // below the tolerances); gravity and spin are set per test.
 Scene affine_scene(const Vec3d& gravity, const Vec3d& spin) {
-  const std::string text = std::string(R"(
-name = "affine_motion"
-[material]
-youngs_modulus = 1e-6
-poisson_ratio = 0.3
-density = 1000.0
-[[body]]
-shape = "box"
-center = [0.0, 0.0, 0.0]
-size = [0.2, 0.16, 0.12]
-spacing = 0.025
-velocity = [0.2, -0.1, 0.05]
-[grid]
-lo = [-0.5, -0.5, -0.5]
-hi = [0.5, 0.5, 0.5]
-dx = 0.05
-[time]
-end_time = 0.12
-outputs = 4
-cfl = 0.3
-)");
-  Scene scene = parse_scene(text, "affine_motion");
+
+  Scene scene = fixture_scene("affine_motion.toml");
   scene.gravity = gravity;
   scene.bodies[0].angular_velocity = spin;
   return scene;

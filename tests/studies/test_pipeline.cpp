@@ -6,6 +6,7 @@
 #include <limits>
 
 #include "backends.hpp"
+#include "fixtures.hpp"
 #include "studies/charts.hpp"
 #include "studies/pipeline.hpp"
 #include "mpmrom/scene.hpp"
@@ -13,36 +14,9 @@
 namespace mpmrom::test {
 namespace {
 
-const std::string kPokeLikeDesign = R"(
-name = "design"
-[parameters]
-a = 1.0
-b = 1.0
-c = 1.0
-[material]
-youngs_modulus = 1e4
-poisson_ratio = 0.3
-density = 100.0
-[[body]]
-shape = "box"
-center = [0.0, 0.0, 0.0]
-size = [0.2, 0.2, 0.2]
-spacing = 0.05
-[grid]
-lo = [-1.0, -1.0, -1.0]
-hi = [1.0, 1.0, 1.0]
-dx = 0.1
-[time]
-end_time = 0.1
-[design]
-a = [0.0, 1.0, 2.0]
-b = [0.0, 1.0, 2.0]
-c = [0.0, 1.0, 2.0]
-test = [4, 10, 13, 16, 22]
-)";
 
 TEST(PipelineValidation, HoldsOutInteriorTrainingRunsNeverTestRuns) {
-  const Scene scene = parse_scene(kPokeLikeDesign, "design.toml");
+  const Scene scene = fixture_scene("three_parameter_design.toml");
   const auto held_out = validation_runs(scene, -1);
   // 22 training runs: (22 + 3) / 6 = 4 held out
   ASSERT_EQ(held_out.size(), 4u);

@@ -6,7 +6,7 @@
 
 #include "backends.hpp"
 #include "fom/fom.hpp"
-#include "pushed_block.hpp"
+#include "fixtures.hpp"
 #include "scene/sampling.hpp"
 
 namespace mpmrom::test {
@@ -59,28 +59,9 @@ Energies energies(const FomSolver& solver, const Scene& scene) {
   return e;
 }
 
-const char* kFreeFall = R"(
-name = "free_fall"
-gravity = [0.0, 0.0, -9.81]
-[material]
-youngs_modulus = 1e5
-poisson_ratio = 0.3
-density = 1000.0
-[[body]]
-shape = "box"
-center = [0.0, 0.0, 1.5]
-size = [0.2, 0.2, 0.2]
-spacing = 0.025
-[grid]
-lo = [-0.5, -0.5, -0.5]
-hi = [0.5, 0.5, 2.0]
-dx = 0.05
-[time]
-end_time = 0.3
-)";
 
 TEST(FomPhysics, FreeFallFollowsTheParabola) {
-  const Scene scene = parse_scene(kFreeFall, "free_fall");
+  const Scene scene = fixture_scene("free_fall.toml");
   FomSolver solver(scene);
   const double g = 9.81, z0 = center_of_mass(solver, 2, 0, solver.num_particles());
   const double dt = 1e-3;
@@ -99,32 +80,12 @@ TEST(FomPhysics, FreeFallFollowsTheParabola) {
       for (int j = 0; j < 3; ++j) ASSERT_NEAR(f.F[9 * p + 3 * i + j], i == j ? 1.0 : 0.0, 64 * steps * eps);
 }
 
-const char* kSpinningSphere = R"(
-name = "spinning_sphere"
-[material]
-youngs_modulus = 1e7
-poisson_ratio = 0.3
-density = 1000.0
-[[body]]
-shape = "sphere"
-center = [0.0, 0.0, 0.0]
-radius = 0.2
-spacing = 0.025
-angular_velocity = [0.0, 0.0, 2.0]
-[grid]
-lo = [-0.5, -0.5, -0.5]
-hi = [0.5, 0.5, 0.5]
-dx = 0.05
-[time]
-end_time = 0.25
-cfl = 0.3
-)";
 
 // Free fall: the budget is the work of gravity counted at the updated velocities, sum m g dt . v_{n+1}, which exceeds
 // the kinetic energy gained, m g dt . (v_n + v_{n+1}) / 2, by m g^2 dt^2 / 2 per step: over a time T in N steps of
 // at most dt_max, 0 <= budget - energy <= M g^2 dt_max T / 2 (and the uniform field has no elastic energy).
 TEST(FomPhysics, FreeFallEnergyEqualsTheWorkOfGravityToOneStep) {
-  const Scene scene = override_scene(parse_scene(kFreeFall, "free_fall"), {"time.dt=0.002"});
+  const Scene scene = override_scene(fixture_scene("free_fall.toml"), {"time.dt=0.002"});
   FomSolver solver(scene);
   solver.advance_to(scene.end_time);
   std::vector<real_t> X, mass, volume;
@@ -168,7 +129,7 @@ TEST(FomPhysics, EnergyCheckedInP2GEqualsASeparatePass) {
 }
 
 TEST(FomPhysics, RigidRotationKeepsFOrthogonalAndStressFree) {
-  const Scene scene = parse_scene(kSpinningSphere, "spinning_sphere");
+  const Scene scene = fixture_scene("spinning_sphere.toml");
   FomSolver solver(scene);
   const double omega = 2.0;
   const Energies start = energies(solver, scene);
@@ -195,34 +156,10 @@ TEST(FomPhysics, RigidRotationKeepsFOrthogonalAndStressFree) {
 
 // A free-free bar along x with nu = 0, so that its axial waves travel at c = sqrt(E / rho) exactly as in 1D.
 // Set in its first mode, v = V cos(pi (x - x0) / L), it vibrates with period T = 2 L / c.
-std::string bar_scene(double dx) {
-  return R"(
-name = "vibrating_bar"
-[material]
-model = "neo_hookean"
-youngs_modulus = 1e4
-poisson_ratio = 0.0
-density = 1.0
-[[body]]
-shape = "box"
-center = [0.0, 0.0, 0.0]
-size = [1.0, 0.1, 0.1]
-spacing = )" + std::to_string(dx / 2) +
-         R"(
-[grid]
-lo = [-0.8, -0.3, -0.3]
-hi = [0.8, 0.3, 0.3]
-dx = )" + std::to_string(dx) +
-         R"(
-[time]
-end_time = 0.05
-cfl = 0.4
-)";
-}
 
 // Runs the bar for 1.25 periods and returns (measured period, largest relative energy change).
 std::pair<double, double> vibrate_bar(double dx) {
-  const Scene scene = parse_scene(bar_scene(dx), "vibrating_bar");
+  const Scene scene = fixture_scene("vibrating_bar.toml", {"body.0.spacing=" + std::to_string(dx / 2), "grid.dx=" + std::to_string(dx)});
   FomSolver solver(scene);
   const double L = 1.0, c = 100.0, V = 0.05;  // V / c = 5e-4: small strain, linear regime
   {
@@ -287,36 +224,9 @@ TEST(FomPhysics, AxialVibrationOfABarHasTheAnalyticPeriod) {
 
 // Two identical elastic spheres approach each other along x (Sulsky, Chen and Schreyer 1994, in 3D): mirror images
 // about x = 0, so the motion must stay symmetric; no walls are reached, so momentum is conserved; they must bounce.
-const char* kCollidingSpheres = R"(
-name = "colliding_spheres"
-[material]
-model = "neo_hookean"
-youngs_modulus = 1000.0
-poisson_ratio = 0.3
-density = 1.0
-[[body]]
-shape = "sphere"
-center = [-0.2, 0.0, 0.0]
-radius = 0.1
-spacing = 0.0125
-velocity = [0.5, 0.0, 0.0]
-[[body]]
-shape = "sphere"
-center = [0.2, 0.0, 0.0]
-radius = 0.1
-spacing = 0.0125
-velocity = [-0.5, 0.0, 0.0]
-[grid]
-lo = [-0.6, -0.2, -0.2]
-hi = [0.6, 0.2, 0.2]
-dx = 0.025
-[time]
-end_time = 0.6
-cfl = 0.4
-)";
 
 TEST(FomPhysics, CollidingSpheresReboundSymmetrically) {
-  const Scene scene = parse_scene(kCollidingSpheres, "colliding_spheres");
+  const Scene scene = fixture_scene("colliding_spheres.toml");
   FomSolver solver(scene);
   const std::size_t n = solver.num_particles(), half = n / 2;
   ASSERT_EQ(sample_scene(scene).body[half], 1);  // bodies are sampled one after the other, equal in size
@@ -348,6 +258,18 @@ TEST(FomPhysics, CollidingSpheresReboundSymmetrically) {
   // resolution at least three quarters must survive the impact.
   EXPECT_LT(worst_gain, 0.01);
   EXPECT_GT(least_total / e0.total(), 0.75);
+}
+
+// Sizes derived from a scene's numbers are counted in doubles and refused before any int conversion: 1e10 cells
+// along x alone would overflow it.
+TEST(FomGrid, GridOfMoreNodesThanAnIntHoldsIsRefused) {
+  const Scene scene = fixture_scene("box_under_force.toml", {"grid.hi=[1e9, 1.0, 1.0]"});
+  try {
+    (void)grid_for_scene(scene);
+    ADD_FAILURE() << "a grid of 1e10 cells along x was accepted";
+  } catch (const std::runtime_error& error) {
+    EXPECT_EQ(std::string(error.what()), "the grid would have more than 2e9 nodes; enlarge dx or shrink the domain");
+  }
 }
 
 }  // namespace

@@ -20,7 +20,7 @@
 #include <vector>
 
 #include "mpmrom/model.hpp"
-#include "pushed_block.hpp"
+#include "fixtures.hpp"
 #include "rom/rom_file.hpp"
 #include "mpmrom/snapshot.hpp"
 

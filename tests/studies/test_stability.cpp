@@ -12,6 +12,7 @@
 #include <optional>
 #include <string>
 
+#include "fixtures.hpp"
 #include "fom/fom.hpp"
 #include "io/hdf5_file.hpp"
 #include "snapshots/simulate.hpp"
@@ -24,29 +25,10 @@ namespace mpmrom::test {
 namespace {
 
 // A spinning block of soft solid, free in space: P-wave speed 11.6 m/s, so the CFL step is 4.3 ms at cfl = 1.
-Scene spinning_block(double cfl, const std::string& extra_time = "") {
-  return parse_scene(R"(
-name = "spinning_block"
-[material]
-model = "fixed_corotated"
-youngs_modulus = 1e5
-poisson_ratio = 0.3
-density = 1000.0
-[[body]]
-shape = "box"
-center = [0.0, 0.0, 0.0]
-size = [0.2, 0.2, 0.2]
-spacing = 0.025
-angular_velocity = [0.0, 0.0, 2.0]
-[grid]
-lo = [-0.5, -0.5, -0.5]
-hi = [0.5, 0.5, 0.5]
-dx = 0.05
-[time]
-end_time = 0.5
-outputs = 5
-cfl = )" + std::to_string(cfl) + "\n" + extra_time,
-                     "spinning_block");
+Scene spinning_block(double cfl, const std::vector<std::string>& more_overrides = {}) {
+  std::vector<std::string> overrides = {"time.cfl=" + std::to_string(cfl)};
+  overrides.insert(overrides.end(), more_overrides.begin(), more_overrides.end());
+  return fixture_scene("spinning_block.toml", overrides);
 }
 
 // Runs to the end; returns the failure, if any.
@@ -117,7 +99,7 @@ TEST(FomDetectors, EnergyBlowUpPastTheStabilityLimitAndTheSubSteppingSafeguard) 
   EXPECT_EQ(failure->cause(), FomFailureCause::EnergyBlowUp) << failure->what();
   EXPECT_NE(std::string(failure->what()).find("exceeds 10"), std::string::npos) << failure->what();
 
-  const Scene guarded = spinning_block(1.5, "max_cfl = 0.5");
+  const Scene guarded = spinning_block(1.5, {"time.max_cfl=0.5"});
   FomSolver safe(guarded);
   const auto none = run_to_end(safe, guarded);
   EXPECT_FALSE(none.has_value()) << none->what();
@@ -125,7 +107,7 @@ TEST(FomDetectors, EnergyBlowUpPastTheStabilityLimitAndTheSubSteppingSafeguard) 
   EXPECT_LE(safe.energy().total(), safe.energy_budget());
 
   // A fixed dt past the limit is shortened by the safeguard in the same way.
-  const Scene fixed = spinning_block(0.3, "dt = 0.01\nmax_cfl = 0.5");
+  const Scene fixed = spinning_block(0.3, {"time.dt=0.01", "time.max_cfl=0.5"});
   FomSolver fixed_safe(fixed);
   EXPECT_FALSE(run_to_end(fixed_safe, fixed).has_value());
   EXPECT_GT(fixed_safe.safeguarded_steps(), 0);

@@ -2,6 +2,7 @@
 #include <cmath>
 
 #include "backends.hpp"
+#include "fixtures.hpp"
 #include "scene/sampling.hpp"
 
 namespace mpmrom::test {
@@ -85,31 +86,7 @@ TEST(Sampling, PoissonDiskKeepsItsMinimumDistanceAndFillsTheShape) {
 }
 
 TEST(Sampling, VolumesAndMassesAddUpToTheBody) {
-  const Scene scene = parse_scene(R"(
-name = "two_bodies"
-[material]
-youngs_modulus = 1e4
-poisson_ratio = 0.3
-density = 250.0
-[[body]]
-shape = "box"
-center = [0.0, 0.0, 0.0]
-size = [0.2, 0.1, 0.1]
-spacing = 0.02
-[[body]]
-shape = "sphere"
-center = [0.5, 0.0, 0.0]
-radius = 0.1
-sampling = "poisson_disk"
-spacing = 0.03
-[grid]
-lo = [-0.4, -0.4, -0.4]
-hi = [0.9, 0.4, 0.4]
-dx = 0.05
-[time]
-end_time = 0.1
-)",
-                                 "two_bodies");
+  const Scene scene = fixture_scene("two_bodies.toml");
   const ParticleSamples s = sample_scene(scene);
   double volume[2] = {0, 0}, mass[2] = {0, 0};
   for (std::size_t p = 0; p < s.size(); ++p) {
