@@ -83,16 +83,13 @@ void add_bench(CLI::App& app, Commands& commands) {
   bench_fom_command->add_option("--warmup", o->bench_warmup, "Untimed steps first")->check(CLI::NonNegativeNumber);
   bench_fom_command->add_option("--p2g", o->p2g, kP2GHelp)
       ->transform(CLI::CheckedTransformer(kP2GStrategies, CLI::ignore_case));
-  bench_fom_command->add_option("--team-size", o->tiling.team_size, "Tiled P2G: threads per team")
-      ->capture_default_str()
+  add_defaulted(bench_fom_command, "--team-size", o->tiling.team_size, "Tiled P2G: threads per team")
       ->check(CLI::PositiveNumber);
-  bench_fom_command
-      ->add_option("--particles-per-team", o->tiling.particles_per_team, "Tiled P2G: consecutive particles per team")
-      ->capture_default_str()
+  add_defaulted(bench_fom_command, "--particles-per-team", o->tiling.particles_per_team,
+                "Tiled P2G: consecutive particles per team")
       ->check(CLI::PositiveNumber);
-  bench_fom_command
-      ->add_option("--tile-nodes", o->tiling.max_tile_nodes, "Tiled P2G: largest tile (nodes) a team keeps in scratch")
-      ->capture_default_str()
+  add_defaulted(bench_fom_command, "--tile-nodes", o->tiling.max_tile_nodes,
+                "Tiled P2G: largest tile (nodes) a team keeps in scratch")
       ->check(CLI::Range(27, 1 << 20));
   const std::map<std::string, mpmrom::ParticleOrder> particle_orders{{"sampling", mpmrom::ParticleOrder::Sampling},
                                                                      {"bricks", mpmrom::ParticleOrder::Bricks}};
@@ -104,17 +101,12 @@ void add_bench(CLI::App& app, Commands& commands) {
 
   auto* bench_nn_command =
       command->add_subcommand("nn", "Network kernels: forward-with-Jacobians evaluations/s, training samples/s");
-  bench_nn_command->add_option("--latent", o->nn_bench.latent_dim, "Latent dimension r")->capture_default_str();
-  bench_nn_command->add_option("--width", o->nn_bench.width, "Hidden units per layer")->capture_default_str();
-  bench_nn_command->add_option("--depth", o->nn_bench.depth, "Affine layers")->capture_default_str();
-  bench_nn_command->add_option("--points", o->nn_bench.points, "Points per evaluation batch")->capture_default_str();
-  bench_nn_command->add_option("--codes", o->nn_bench.codes, "Latent codes per evaluation batch (rollouts)")
-      ->capture_default_str();
-  bench_nn_command->add_option("--batch-snapshots", o->nn_bench.batch_snapshots, "Training minibatch: snapshots")
-      ->capture_default_str();
-  bench_nn_command
-      ->add_option("--points-per-snapshot", o->nn_bench.points_per_snapshot, "Training minibatch: points each")
-      ->capture_default_str();
+  add_network_shape(bench_nn_command, o->nn_bench.latent_dim, o->nn_bench.width, o->nn_bench.depth);
+  add_defaulted(bench_nn_command, "--points", o->nn_bench.points, "Points per evaluation batch");
+  add_defaulted(bench_nn_command, "--codes", o->nn_bench.codes, "Latent codes per evaluation batch (rollouts)");
+  add_defaulted(bench_nn_command, "--batch-snapshots", o->nn_bench.batch_snapshots, "Training minibatch: snapshots");
+  add_defaulted(bench_nn_command, "--points-per-snapshot", o->nn_bench.points_per_snapshot,
+                "Training minibatch: points each");
   bench_nn_command->add_option("--repeats", o->nn_bench.repeats, "Timed repetitions")->check(CLI::PositiveNumber);
   bench_nn_command->add_flag("--json", o->bench_json, "One JSON record on stdout");
   bench_nn_command->footer("Example: mpmrom bench nn --codes 1024 --json");

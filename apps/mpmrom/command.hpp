@@ -5,6 +5,7 @@
 #include <CLI/CLI.hpp>
 
 #include <functional>
+#include <string>
 #include <vector>
 
 #include "core/parallel.hpp"
@@ -25,6 +26,19 @@ struct Command {
   std::function<int(const Context&)> run;  // the exit status
 };
 using Commands = std::vector<Command>;
+
+// An option whose --help shows its default value: the one idiom of the commands' options.
+template <class T>
+CLI::Option* add_defaulted(CLI::App* command, const std::string& name, T& value, const std::string& help) {
+  return command->add_option(name, value, help)->capture_default_str();
+}
+
+// The network's shape, as train and bench nn take it.
+inline void add_network_shape(CLI::App* command, int& latent_dim, int& width, int& depth) {
+  add_defaulted(command, "--latent", latent_dim, "Latent dimension r");
+  add_defaulted(command, "--width", width, "Hidden units per layer");
+  add_defaulted(command, "--depth", depth, "Affine layers (depth - 1 hidden ELU layers)");
+}
 
 // In the order `mpmrom --help` lists them.
 void add_info(CLI::App& app, Commands& commands);

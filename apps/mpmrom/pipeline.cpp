@@ -42,36 +42,25 @@ void add_pipeline(CLI::App& app, Commands& commands) {
       ->check(CLI::ExistingFile);
   command->add_option("--out", o->pipeline_settings.out_dir, "Output directory (report.md, report.json, charts, data)")
       ->required();
-  command
-      ->add_option("--fom-refinements", o->pipeline_settings.fom_refinements,
-                   "FOM resolutions, as factors on the scene's (grid and particle spacing divided by each)")
-      ->capture_default_str();
-  command->add_option("--fom-cfl", o->pipeline_settings.fom_cfls, "CFL numbers of the FOM ladder (0: the scene's)")
-      ->capture_default_str();
-  command
-      ->add_option("--reference-refinement", o->pipeline_settings.reference_refinement,
-                   "Resolution factor of the reference FOM that every error is measured against")
-      ->capture_default_str();
+  add_defaulted(command, "--fom-refinements", o->pipeline_settings.fom_refinements,
+                "FOM resolutions, as factors on the scene's (grid and particle spacing divided by each)");
+  add_defaulted(command, "--fom-cfl", o->pipeline_settings.fom_cfls, "CFL numbers of the FOM ladder (0: the scene's)");
+  add_defaulted(command, "--reference-refinement", o->pipeline_settings.reference_refinement,
+                "Resolution factor of the reference FOM that every error is measured against");
   command->add_option("--networks", o->pipeline_networks,
                       "Networks to train, r x width x depth (e.g. 5x48x5 3x16x5); default: train's defaults, or "
                       "r in {3,5,8} x width in {16,32,48} with --target-error");
-  command->add_option("--epochs", o->pipeline_settings.training.epochs, "Training epochs per network")
-      ->capture_default_str();
-  command->add_option("--methods", o->pipeline_methods, "ROM algorithms: point (1), node (2)")->capture_default_str();
-  command->add_option("--samples", o->pipeline_settings.samples, "Sample counts to try (0: all points)")
-      ->capture_default_str();
-  command->add_option("--rom-cfl", o->pipeline_settings.rom_cfls, "ROM time steps as CFL numbers (0: the scene's)")
-      ->capture_default_str();
-  command
-      ->add_option("--validation-runs", o->pipeline_settings.validation_runs,
-                   "Training runs held out to choose models (-1: a sixth)")
-      ->capture_default_str();
+  add_defaulted(command, "--epochs", o->pipeline_settings.training.epochs, "Training epochs per network");
+  add_defaulted(command, "--methods", o->pipeline_methods, "ROM algorithms: point (1), node (2)");
+  add_defaulted(command, "--samples", o->pipeline_settings.samples, "Sample counts to try (0: all points)");
+  add_defaulted(command, "--rom-cfl", o->pipeline_settings.rom_cfls, "ROM time steps as CFL numbers (0: the scene's)");
+  add_defaulted(command, "--validation-runs", o->pipeline_settings.validation_runs,
+                "Training runs held out to choose models (-1: a sixth)");
   command
       ->add_option("--target-error", o->pipeline_settings.target_errors,
                    "Search for the cheapest ROM meeting each validation position error (fractions)")
       ->check(CLI::PositiveNumber);
-  command->add_option("--batch-sizes", o->pipeline_settings.batch_sizes, "Batch sizes of the throughput benchmark")
-      ->capture_default_str();
+  add_defaulted(command, "--batch-sizes", o->pipeline_settings.batch_sizes, "Batch sizes of the throughput benchmark");
   command->footer(
       "Example: mpmrom pipeline scenes/poke_cylinder.toml --out out/pipeline\n"
       "         mpmrom pipeline scenes/poke_cylinder.toml --out out/search --target-error 0.01 0.003");

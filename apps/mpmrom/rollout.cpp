@@ -169,63 +169,46 @@ void add_rollout(CLI::App& app, Commands& commands) {
       ->required()
       ->check(CLI::ExistingFile);
   command->add_option("--out", o->rom_path, "ROM file to write (HDF5)")->required();
-  command->add_option("--method", o->rom_method, "point (Algorithm 1, material-point-centric) or node (Algorithm 2)")
-      ->capture_default_str();
-  command->add_option("--samples", o->rom_settings.samples, "Sample material points for the projection; 0: all points")
-      ->capture_default_str();
-  command
-      ->add_option("--selection", o->rom_selection,
-                   "Sample selection: greedy (from the model's stored ranking, or refitted to --data), region or "
-                   "random")
-      ->capture_default_str();
+  add_defaulted(command, "--method", o->rom_method,
+                "point (Algorithm 1, material-point-centric) or node (Algorithm 2)");
+  add_defaulted(command, "--samples", o->rom_settings.samples,
+                "Sample material points for the projection; 0: all points");
+  add_defaulted(command, "--selection", o->rom_selection,
+                "Sample selection: greedy (from the model's stored ranking, or refitted to --data), region or "
+                "random");
   command->add_option("--data", o->rom_data,
                       "Full-order training runs (sweep directory) to refit --selection greedy to");
-  command->add_option("--seed", o->rom_settings.seed, "Seed of --selection random")->capture_default_str();
+  add_defaulted(command, "--seed", o->rom_settings.seed, "Seed of --selection random");
   command->add_option("--params", o->params_path, "Parameter file (design.csv form); default: the scene's design")
       ->check(CLI::ExistingFile);
-  command
-      ->add_option(
-          "--cfl", o->rom_settings.cfl,
-          "Time step as a fraction of the CFL limit, up to 10 (0: the scene's; above 1 the FOM would be unstable)")
-      ->capture_default_str();
-  command
-      ->add_option("--end-time", o->rom_settings.end_time,
-                   "Horizon (s), rounded to whole output intervals of the scene (0: the scene's end time)")
-      ->capture_default_str();
-  command->add_option("--margin", o->rom_settings.envelope_margin, "Cells of slack around the training motion")
-      ->capture_default_str();
-  command->add_option("--quadrature", o->rom_settings.quadrature_order, "Algorithm 2: Gauss points per axis per cell")
-      ->capture_default_str();
-  command->add_option("--newton-tolerance", o->rom_settings.newton_tolerance, "Algorithm 2: inversion tolerance, cells")
-      ->capture_default_str();
-  command
-      ->add_option("--projection-iterations", o->rom_settings.projection_iterations,
-                   "Re-projections with dg/dxhat at the trial next state (0: the paper's, at xhat(t_n))")
-      ->capture_default_str();
+  add_defaulted(
+      command, "--cfl", o->rom_settings.cfl,
+      "Time step as a fraction of the CFL limit, up to 10 (0: the scene's; above 1 the FOM would be unstable)");
+  add_defaulted(command, "--end-time", o->rom_settings.end_time,
+                "Horizon (s), rounded to whole output intervals of the scene (0: the scene's end time)");
+  add_defaulted(command, "--margin", o->rom_settings.envelope_margin, "Cells of slack around the training motion");
+  add_defaulted(command, "--quadrature", o->rom_settings.quadrature_order,
+                "Algorithm 2: Gauss points per axis per cell");
+  add_defaulted(command, "--newton-tolerance", o->rom_settings.newton_tolerance,
+                "Algorithm 2: inversion tolerance, cells");
+  add_defaulted(command, "--projection-iterations", o->rom_settings.projection_iterations,
+                "Re-projections with dg/dxhat at the trial next state (0: the paper's, at xhat(t_n))");
   command->add_option("--max-condition", o->rom_settings.max_condition,
                       "Condition estimate of the normal equations above which they are regularised (0: 0.01/epsilon)");
   command->add_flag("!--no-regularize", o->rom_settings.regularize,
                     "Stop a rollout at an ill-conditioned projection instead of regularising it");
   command->add_flag("!--no-inversion-fallback", o->rom_settings.inversion_fallback,
                     "Algorithm 2: drop a quadrature point whose inversion failed, without retrying");
-  command
-      ->add_option("--max-failed-inversions", o->rom_settings.max_failed_inversions,
-                   "Algorithm 2: stop when more than this fraction of the quadrature points fails in a step")
-      ->capture_default_str();
-  command
-      ->add_option("--energy-growth", o->rom_settings.energy_growth,
-                   "Stop when |dxhat/dt| exceeds this times the fastest training motion (0: no check)")
-      ->capture_default_str();
-  command
-      ->add_option("--decode", o->decode_mode,
-                   "Decoded fields to store: none, reference (the model's points) or lattice (--decode-spacing)")
-      ->capture_default_str();
+  add_defaulted(command, "--max-failed-inversions", o->rom_settings.max_failed_inversions,
+                "Algorithm 2: stop when more than this fraction of the quadrature points fails in a step");
+  add_defaulted(command, "--energy-growth", o->rom_settings.energy_growth,
+                "Stop when |dxhat/dt| exceeds this times the fastest training motion (0: no check)");
+  add_defaulted(command, "--decode", o->decode_mode,
+                "Decoded fields to store: none, reference (the model's points) or lattice (--decode-spacing)");
   command->add_option("--decode-spacing", o->decode_spacing, "Lattice spacing (m) of --decode lattice");
   command->add_flag("--json", o->rollout_json, "Print a benchmark record (timings, hyper-reduction) on stdout");
-  command
-      ->add_option("--checkpoint-seconds", o->rollout_checkpoint.seconds,
-                   "Seconds between checkpoints (ROM.h5.ckpt, at output frames)")
-      ->capture_default_str()
+  add_defaulted(command, "--checkpoint-seconds", o->rollout_checkpoint.seconds,
+                "Seconds between checkpoints (ROM.h5.ckpt, at output frames)")
       ->check(CLI::NonNegativeNumber);
   command->add_flag("--resume", o->rollout_checkpoint.resume,
                     "Continue from ROM.h5.ckpt, left by a run that was stopped");

@@ -54,28 +54,18 @@ void add_stability(CLI::App& app, Commands& commands) {
       ->check(CLI::ExistingDirectory);
   command->add_option("--out", o->stability_settings.out_dir, "Output directory (stability.md, .json, charts)")
       ->required();
-  command->add_option("--samples", o->stability_settings.samples, "Sample points of the hyper-reduced configurations")
-      ->capture_default_str();
-  command->add_option("--selection", o->stability_selection, "Sample selection: region, random or greedy")
-      ->capture_default_str();
-  command
-      ->add_option("--threshold", o->stability_settings.threshold,
-                   "Position error (fraction) above which a run counts as inaccurate")
-      ->capture_default_str();
-  command->add_option("--fom-cfl", o->stability_settings.fom_cfl, "FOM time steps (CFL numbers)")
-      ->capture_default_str();
-  command->add_option("--rom-cfl", o->stability_settings.rom_cfl, "ROM time steps (CFL numbers)")
-      ->capture_default_str();
-  command
-      ->add_option("--extrapolation", o->stability_settings.extrapolation,
-                   "Distances beyond the training range, in widths (-0.5: its centre)")
-      ->capture_default_str();
-  command->add_option("--horizons", o->stability_settings.horizons, "Horizons, in training windows")
-      ->capture_default_str();
-  command
-      ->add_option("--load-factors", o->stability_settings.load_factors,
-                   "Factors on the first design parameter for Algorithm 2's inversion")
-      ->capture_default_str();
+  add_defaulted(command, "--samples", o->stability_settings.samples,
+                "Sample points of the hyper-reduced configurations");
+  add_defaulted(command, "--selection", o->stability_selection, "Sample selection: region, random or greedy");
+  add_defaulted(command, "--threshold", o->stability_settings.threshold,
+                "Position error (fraction) above which a run counts as inaccurate");
+  add_defaulted(command, "--fom-cfl", o->stability_settings.fom_cfl, "FOM time steps (CFL numbers)");
+  add_defaulted(command, "--rom-cfl", o->stability_settings.rom_cfl, "ROM time steps (CFL numbers)");
+  add_defaulted(command, "--extrapolation", o->stability_settings.extrapolation,
+                "Distances beyond the training range, in widths (-0.5: its centre)");
+  add_defaulted(command, "--horizons", o->stability_settings.horizons, "Horizons, in training windows");
+  add_defaulted(command, "--load-factors", o->stability_settings.load_factors,
+                "Factors on the first design parameter for Algorithm 2's inversion");
   command->footer("Example: mpmrom stability scenes/poke_cylinder.toml --model model.h5 --data data/poke --out map");
   commands.push_back({command, nullptr, [o](const Context& context) { return run(*o, context); }});
 }

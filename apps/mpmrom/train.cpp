@@ -106,36 +106,21 @@ void add_train(CLI::App& app, Commands& commands) {
       ->required()
       ->check(CLI::ExistingPath);
   command->add_option("--out", o->model_path, "Model file to write (HDF5)")->required();
-  command->add_option("--latent", o->training.latent_dim, "Latent dimension r")->capture_default_str();
-  command->add_option("--width", o->training.width, "Hidden units per layer")->capture_default_str();
-  command->add_option("--depth", o->training.depth, "Affine layers (depth - 1 hidden ELU layers)")
-      ->capture_default_str();
-  command
-      ->add_option("--lambda-grad", o->training.lambda_gradient, "lambda1: weight of the dg/dX - F misfit (relative)")
-      ->capture_default_str();
-  command
-      ->add_option("--lambda-vel", o->training.lambda_velocity,
-                   "lambda2: weight of the dg/dxhat xhatdot - v misfit (relative)")
-      ->capture_default_str();
-  command->add_option("--epochs", o->training.epochs, "Epochs (each visits every training snapshot once)")
-      ->capture_default_str();
-  command->add_option("--batch-snapshots", o->training.batch_snapshots, "Snapshots per minibatch")
-      ->capture_default_str();
-  command
-      ->add_option("--points-per-snapshot", o->training.points_per_snapshot, "Material points drawn per snapshot visit")
-      ->capture_default_str();
-  command->add_option("--learning-rate", o->training.learning_rate, "Adam learning rate, first epoch")
-      ->capture_default_str();
-  command->add_option("--final-learning-rate", o->training.final_learning_rate, "Adam learning rate, last epoch")
-      ->capture_default_str();
-  command->add_option("--validation", o->training.validation_fraction, "Fraction of material points held out")
-      ->capture_default_str();
-  command->add_option("--seed", o->training.seed, "Random seed (initial weights, minibatches, validation points)")
-      ->capture_default_str();
-  command
-      ->add_option("--checkpoint-seconds", o->training.checkpoint_seconds,
-                   "Seconds between checkpoints (MODEL.h5.ckpt)")
-      ->capture_default_str();
+  add_network_shape(command, o->training.latent_dim, o->training.width, o->training.depth);
+  add_defaulted(command, "--lambda-grad", o->training.lambda_gradient,
+                "lambda1: weight of the dg/dX - F misfit (relative)");
+  add_defaulted(command, "--lambda-vel", o->training.lambda_velocity,
+                "lambda2: weight of the dg/dxhat xhatdot - v misfit (relative)");
+  add_defaulted(command, "--epochs", o->training.epochs, "Epochs (each visits every training snapshot once)");
+  add_defaulted(command, "--batch-snapshots", o->training.batch_snapshots, "Snapshots per minibatch");
+  add_defaulted(command, "--points-per-snapshot", o->training.points_per_snapshot,
+                "Material points drawn per snapshot visit");
+  add_defaulted(command, "--learning-rate", o->training.learning_rate, "Adam learning rate, first epoch");
+  add_defaulted(command, "--final-learning-rate", o->training.final_learning_rate, "Adam learning rate, last epoch");
+  add_defaulted(command, "--validation", o->training.validation_fraction, "Fraction of material points held out");
+  add_defaulted(command, "--seed", o->training.seed, "Random seed (initial weights, minibatches, validation points)");
+  add_defaulted(command, "--checkpoint-seconds", o->training.checkpoint_seconds,
+                "Seconds between checkpoints (MODEL.h5.ckpt)");
   command->add_flag("--resume", o->resume, "Continue from MODEL.h5.ckpt, left by a run that was stopped");
   command
       ->add_option("--target-error", o->target_errors,
