@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
-# Tries each bad input (quietly: -q, so that only what a failure prints is counted) of docs/reliability.md on the command line and prints the table rows: the input, the exit
-# code and the one line the tool printed (rerun it to refresh the document). Uses fuzz/seed_scene.toml and the
-# seed files of fuzz/corpus/hdf5/ as the good inputs that each case spoils.
+# Tries each bad input of docs/reliability.md on the command line (quietly: -q, so that only what a failure prints
+# is counted) and prints the table rows: the input, the exit code and the one line the tool printed (rerun it to
+# refresh the document). Uses fuzz/seed_scene.toml and the seed files of fuzz/corpus/hdf5/ as the good inputs that
+# each case spoils.
 # Usage: scripts/bad_inputs.sh [BUILD_DIR]     (default build/double)
 set -uo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -30,35 +31,28 @@ row() {  # row DESCRIPTION COMMAND...
 
 echo "| bad input | exit | lines | what the tool printed (first line) |"
 echo "| --- | --- | --- | --- |"
-scene_with 's/^\[time\]$/[time/' syntax.toml
-row "scene: TOML syntax error" "$mpmrom" -q simulate syntax.toml --out out.h5
-scene_with '/^\[grid\]$/,/^dx/d' nogrid.toml
-row "scene: missing [grid]" "$mpmrom" -q simulate nogrid.toml --out out.h5
-scene_with 's/^dx = 0.1$/dx = "fine"/' type.toml
-row "scene: wrong type (dx = \"fine\")" "$mpmrom" -q simulate type.toml --out out.h5
-scene_with 's/^dx = 0.1$/dx = 0.0/' zero.toml
-row "scene: zero grid spacing" "$mpmrom" -q simulate zero.toml --out out.h5
-scene_with 's/^size = .*$/size = [0.2, -0.2, 0.2]/' negative.toml
-row "scene: negative body size" "$mpmrom" -q simulate negative.toml --out out.h5
-scene_with 's/^poisson_ratio = 0.3$/poisson_ratio = 0.5/' nu.toml
-row "scene: nu = 0.5" "$mpmrom" -q simulate nu.toml --out out.h5
-scene_with 's/^spacing = 0.05$/spacing = 0.5/' empty.toml
-row "scene: body with no material point (spacing above its size)" "$mpmrom" -q simulate empty.toml --out out.h5
-scene_with 's/^center = .*$/center = [0.45, 0.0, 0.0]/' outside.toml
-row "scene: body outside the grid" "$mpmrom" -q simulate outside.toml --out out.h5
-scene_with 's/^youngs_modulus = .*$/youngs_modulus = nan/' nan.toml
-row "scene: NaN material constant" "$mpmrom" -q simulate nan.toml --out out.h5
+# Spoiled scenes, one a line: "description|file|sed expression that spoils the seed scene".
+while IFS='|' read -r description file edit; do
+  scene_with "$edit" "$file"
+  row "$description" "$mpmrom" -q simulate "$file" --out out.h5
+done <<'CASES'
+scene: TOML syntax error|syntax.toml|s/^\[time\]$/[time/
+scene: missing [grid]|nogrid.toml|/^\[grid\]$/,/^dx/d
+scene: wrong type (dx = "fine")|type.toml|s/^dx = 0.1$/dx = "fine"/
+scene: zero grid spacing|zero.toml|s/^dx = 0.1$/dx = 0.0/
+scene: negative body size|negative.toml|s/^size = .*$/size = [0.2, -0.2, 0.2]/
+scene: nu = 0.5|nu.toml|s/^poisson_ratio = 0.3$/poisson_ratio = 0.5/
+scene: body with no material point (spacing above its size)|empty.toml|s/^spacing = 0.05$/spacing = 0.5/
+scene: body outside the grid|outside.toml|s/^center = .*$/center = [0.45, 0.0, 0.0]/
+scene: NaN material constant|nan.toml|s/^youngs_modulus = .*$/youngs_modulus = nan/
+scene: a count beyond int's range (outputs = 2777777777)|outputs.toml|s/^outputs = 2$/outputs = 2777777777/
+scene: 8e12 material points (too little memory)|huge.toml|s/^spacing = 0.05$/spacing = 0.00001/
+scene: 1.7e9 grid nodes, 55 GB (too little memory)|biggrid.toml|s/^lo = .*$/lo = [-6.0, -6.0, -6.0]/; s/^hi = .*$/hi = [6.0, 6.0, 6.0]/; s/^dx = 0.1$/dx = 0.01/
+scene: 8e15 grid nodes|hugegrid.toml|s/^lo = .*$/lo = [-100.0, -100.0, -100.0]/; s/^hi = .*$/hi = [100.0, 100.0, 100.0]/; s/^dx = 0.1$/dx = 0.001/
+CASES
 row "scene: NaN in --set" "$mpmrom" -q simulate "$seed" --set push=inf --out out.h5
-scene_with 's/^outputs = 2$/outputs = 2777777777/' outputs.toml
-row "scene: a count beyond int's range (outputs = 2777777777)" "$mpmrom" -q simulate outputs.toml --out out.h5
 row "scene: a count that is not whole (--set time.outputs=2.5)" \
   "$mpmrom" -q simulate "$seed" --set time.outputs=2.5 --out out.h5
-scene_with 's/^spacing = 0.05$/spacing = 0.00001/' huge.toml
-row "scene: 8e12 material points (too little memory)" "$mpmrom" -q simulate huge.toml --out out.h5
-scene_with 's/^lo = .*$/lo = [-6.0, -6.0, -6.0]/; s/^hi = .*$/hi = [6.0, 6.0, 6.0]/; s/^dx = 0.1$/dx = 0.01/' biggrid.toml
-row "scene: 1.7e9 grid nodes, 55 GB (too little memory)" "$mpmrom" -q simulate biggrid.toml --out out.h5
-scene_with 's/^lo = .*$/lo = [-100.0, -100.0, -100.0]/; s/^hi = .*$/hi = [100.0, 100.0, 100.0]/; s/^dx = 0.1$/dx = 0.001/' hugegrid.toml
-row "scene: 8e15 grid nodes" "$mpmrom" -q simulate hugegrid.toml --out out.h5
 row "scene file missing" "$mpmrom" -q simulate missing.toml --out out.h5
 
 row "unwritable output path (/proc)" "$mpmrom" -q simulate "$seed" --out /proc/out.h5
