@@ -1,5 +1,8 @@
 #include "io/file_checks.hpp"
 
+#include <filesystem>
+#include <system_error>
+
 #include "mpmrom/mpmrom_config.hpp"
 #include "mpmrom/runtime.hpp"
 
@@ -11,6 +14,20 @@ void write_file_identity(hdf5::File& file, const std::string& format, int format
   file.set_string_attribute("precision", MPMROM_PRECISION_NAME);
   file.set_string_attribute("mpmrom_version", MPMROM_VERSION_STRING);
   file.set_string_attribute("git_commit", git_commit());
+}
+
+hdf5::File open_checked(const std::string& path, const FileKind& kind, std::int64_t* version) {
+  std::error_code error;
+  if (!std::filesystem::is_regular_file(path, error)) bad(path, kind.missing);
+  hdf5::File file = hdf5::File::open(path);
+  if (!file.has_attribute("format") || file.string_attribute("format") != kind.format) bad(path, kind.other_format);
+  const std::int64_t found = file.integer_attribute("format_version");
+  if (found < 1 || found > kind.newest_version)
+    bad(path, kind.version_name + " format version " + std::to_string(found) +
+                  " is not supported (this build reads versions 1 to " + std::to_string(kind.newest_version) + ")");
+  if (!file.has_attribute("complete") || file.integer_attribute("complete") != 1) bad(path, kind.incomplete);
+  if (version != nullptr) *version = found;
+  return file;
 }
 
 std::vector<double> read_checked(const std::string& path, const hdf5::Dataset& dataset,

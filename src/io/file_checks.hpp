@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstddef>
+#include <cstdint>
 #include <functional>
 #include <numeric>
 #include <sstream>
@@ -82,6 +83,19 @@ std::vector<Integer> checked_integers(const std::string& path, const std::string
 
 // The identity every mpmrom file carries: format tag and version, precision, and the build that wrote it.
 void write_file_identity(hdf5::File& file, const std::string& format, int format_version);
+
+// What a reader expects of a kind of file before reading it (write_file_identity), and its errors when the file is not
+// that: absent, of another format, of a format version it does not read, or not completely written.
+struct FileKind {
+  std::string format;  // the "format" attribute
+  int newest_version;  // versions 1 to newest_version are read
+  std::string version_name;  // "<version_name> format version 4 is not supported ..."
+  std::string missing, other_format, incomplete;
+};
+
+// Opens the file at path after checking it against kind, in the order of FileKind's errors; version, if given,
+// receives the file's format version.
+hdf5::File open_checked(const std::string& path, const FileKind& kind, std::int64_t* version = nullptr);
 
 // Reads a dataset after checking its shape, and checks that every value is finite.
 std::vector<double> read_checked(const std::string& path, const hdf5::Dataset& dataset,

@@ -1,7 +1,6 @@
 #include "mpmrom/model.hpp"
 
 #include <cmath>
-#include <filesystem>
 #include <stdexcept>
 
 #include "io/atomic_file.hpp"
@@ -128,18 +127,10 @@ void save_model(const std::string& path, const Model& m, const OptimizerState* o
 }
 
 Model load_model(const std::string& path, OptimizerState* optimizer) {
-  std::error_code error;
-  if (!std::filesystem::is_regular_file(path, error)) bad(path, "no such model file");
-  const hdf5::File file = hdf5::File::open(path);
-  if (!file.has_attribute("format") || file.string_attribute("format") != model_format)
-    bad(path, "not an mpmrom model file");
-  const auto version = file.integer_attribute("format_version");
   // Version 1 differs in its string attributes only (variable-length), which the HDF5 layer refuses unless trusted.
-  if (version < 1 || version > model_format_version)
-    bad(path, "model format version " + std::to_string(version) + " is not supported (this build reads versions 1 to " +
-                  std::to_string(model_format_version) + ")");
-  if (!file.has_attribute("complete") || file.integer_attribute("complete") != 1)
-    bad(path, "incomplete model file (training did not finish writing it)");
+  const hdf5::File file = impl::open_checked(path, {model_format, model_format_version, "model", "no such model file",
+                                                    "not an mpmrom model file",
+                                                    "incomplete model file (training did not finish writing it)"});
 
   Model m;
   m.precision = file.string_attribute("precision");

@@ -1,14 +1,17 @@
 #include "rom/rom_file.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <type_traits>
 
 #include "io/atomic_file.hpp"
 #include "io/hdf5_file.hpp"
 #include "io/file_checks.hpp"
 #include "io/xdmf.hpp"
 #include "mpmrom/snapshot.hpp"
+#include "rom/outcome.hpp"
 
 namespace mpmrom {
 namespace {
@@ -60,22 +63,28 @@ std::vector<impl::XdmfBlock> write_decoded_views(hdf5::File& file, const RomResu
 
 std::vector<std::int64_t> to_int64(const std::vector<int>& values) { return {values.begin(), values.end()}; }
 
-}  // namespace
-
-std::uint64_t model_checksum(const Model& model) {
-  std::uint64_t hash = 1469598103934665603ULL;
-  for (const double w : model.weights) {
-    unsigned char bytes[sizeof(double)];
-    std::memcpy(bytes, &w, sizeof(double));
-    for (const unsigned char c : bytes) hash = (hash ^ c) * 1099511628211ULL;
-  }
-  return hash;
+// /outcome: a dataset per field of RolloutOutcome (impl::for_each_outcome_field), an entry per rollout; the strings
+// as lists named in the plural.
+void write_outcomes(hdf5::File& file, const std::vector<RolloutOutcome>& outcomes) {
+  hdf5::Group group = file.create_group("outcome");
+  impl::for_each_outcome_field([&](const auto& field) {
+    using Field = typename std::decay_t<decltype(field)>::type;
+    std::vector<Field> column;
+    for (const auto& o : outcomes) column.push_back(o.*field.member);
+    if constexpr (std::is_same_v<Field, std::string>)
+      group.create_string_list(std::string(field.name) + "s", column);
+    else if constexpr (std::is_integral_v<Field>)
+      write_dataset(group, field.name, hdf5::Element::int64, std::vector<std::int64_t>(column.begin(), column.end()),
+                    {outcomes.size()});
+    else
+      write_dataset(group, field.name, hdf5::Element::float64, column, {outcomes.size()});
+  });
 }
 
-void save_rom(const std::string& path, const RomFile& rom) {
+// Throws when the parts of rom do not fit together (an internal error) or hold a non-finite value.
+void check_rom(const std::string& path, const RomFile& rom) {
   const RomResult& res = rom.result;
   const std::size_t B = res.cases.size(), frames = res.times.size(), r = std::size_t(res.latent_dim);
-  const std::size_t names = res.parameter_names.size();
   if (res.xhat.size() != B * frames * r || res.xhatdot.size() != B * frames * r || res.outcomes.size() != B)
     bad(path, "inconsistent reduced-model result (internal error)");
   impl::require_finite(path, "xhat", res.xhat.data(), {res.xhat.size()});
@@ -93,6 +102,104 @@ void save_rom(const std::string& path, const RomFile& rom) {
     impl::require_finite(path, "decoded v", rom.decoded_v.data(), {rom.decoded_v.size()});
     impl::require_finite(path, "decoded F", rom.decoded_F.data(), {rom.decoded_F.size()});
   }
+}
+
+// /hyper_reduction: the precomputed sets.
+void write_hyper_reduction(hdf5::File& file, const HyperReduction& sets) {
+  hdf5::Group reduction = file.create_group("hyper_reduction");
+  write_dataset(reduction, "source_points", hdf5::Element::int64, to_int64(sets.source_points),
+                {sets.source_points.size()});
+  write_dataset(reduction, "nodes", hdf5::Element::int64, to_int64(sets.nodes), {sets.nodes.size()});
+  write_dataset(reduction, "node_offsets", hdf5::Element::int64, to_int64(sets.node_offsets),
+                {sets.node_offsets.size()});
+  write_dataset(reduction, "node_sources", hdf5::Element::int64, to_int64(sets.node_sources),
+                {sets.node_sources.size()});
+  write_dataset(reduction, "quadrature_x", hdf5::Element::float64, sets.quadrature_x,
+                {sets.quadrature_weight.size(), 3});
+  write_dataset(reduction, "quadrature_weight", hdf5::Element::float64, sets.quadrature_weight,
+                {sets.quadrature_weight.size()});
+}
+
+// The sets in /hyper_reduction (write_hyper_reduction) for the given samples.
+HyperReduction read_hyper_reduction(const std::string& path, const hdf5::Group& reduction,
+                                    const std::vector<int>& samples) {
+  const auto indices = [&](const char* name) {
+    const auto shape = reduction.dataset(name).shape();
+    if (shape.size() != 1) bad(path, std::string("/hyper_reduction/") + name + " must be a vector");
+    return impl::checked_integers<int>(path, std::string("/hyper_reduction/") + name,
+                                       impl::read_checked(path, reduction.dataset(name), shape, ""), 0);
+  };
+  HyperReduction sets;
+  sets.samples = samples;
+  sets.source_points = indices("source_points");
+  sets.nodes = indices("nodes");
+  sets.node_offsets = indices("node_offsets");
+  sets.node_sources = indices("node_sources");
+  const auto weight_shape = reduction.dataset("quadrature_weight").shape();
+  if (weight_shape.size() != 1) bad(path, "/hyper_reduction/quadrature_weight must be a vector");
+  sets.quadrature_weight = impl::read_checked(path, reduction.dataset("quadrature_weight"), weight_shape, "");
+  sets.quadrature_x = impl::read_checked(path, reduction.dataset("quadrature_x"), {weight_shape[0], 3},
+                                         "(quadrature points, 3)");
+  if (!sets.node_offsets.empty() &&
+      (sets.node_offsets.size() != sets.nodes.size() + 1 || sets.node_offsets.front() != 0 ||
+       std::size_t(sets.node_offsets.back()) != sets.node_sources.size()))
+    bad(path, "/hyper_reduction/node_offsets does not match nodes and node_sources");
+  return sets;
+}
+
+// Version 1 kept the per-rollout strings in attributes, which HDF5 caps at 64 kB (about 10^4 rollouts).
+std::vector<std::string> per_rollout_strings(const hdf5::Group& group, const std::string& name, std::int64_t version) {
+  return version == 1 ? group.string_list_attribute(name) : group.dataset(name).read_strings();
+}
+
+// The B outcomes in /outcome (write_outcomes) of a file of the given version with the given number of frames.
+std::vector<RolloutOutcome> read_outcomes(const std::string& path, const hdf5::Group& group, std::size_t B,
+                                          std::size_t frames, std::int64_t version) {
+  // Files written before the stability safeguards have no warnings or fallbacks: none to report.
+  const auto absent = [&](const std::string& name) {
+    return (name == "warning" && !(version > 1 || group.has_attribute("warnings"))) ||
+           (name == "inversion_fallbacks" && !group.has_child(name));
+  };
+  std::vector<RolloutOutcome> outcomes(B);
+  impl::for_each_outcome_field([&](const auto& field) {
+    using Field = typename std::decay_t<decltype(field)>::type;
+    const std::string name = field.name;
+    if (absent(name)) return;
+    std::vector<Field> column;
+    if constexpr (std::is_same_v<Field, std::string>) {
+      column = per_rollout_strings(group, name + "s", version);
+      if (column.size() != B) bad(path, "/outcome " + name + "s: one per rollout expected");
+    } else {
+      const auto values = impl::read_checked(path, group.dataset(name), {B}, "(one per rollout)");
+      if constexpr (std::is_integral_v<Field>)
+        column = impl::checked_integers<Field>(path, "/outcome/" + name, values, 0,
+                                               name == "frames_completed" ? double(frames) : INFINITY);
+      else
+        column = values;
+    }
+    for (std::size_t b = 0; b < B; ++b) outcomes[b].*field.member = column[b];
+  });
+  return outcomes;
+}
+
+}  // namespace
+
+std::uint64_t model_checksum(const Model& model) {
+  std::uint64_t hash = 1469598103934665603ULL;
+  for (const double w : model.weights) {
+    unsigned char bytes[sizeof(double)];
+    std::memcpy(bytes, &w, sizeof(double));
+    for (const unsigned char c : bytes) hash = (hash ^ c) * 1099511628211ULL;
+  }
+  return hash;
+}
+
+void save_rom(const std::string& path, const RomFile& rom) {
+  const RomResult& res = rom.result;
+  const std::size_t B = res.cases.size(), frames = res.times.size(), r = std::size_t(res.latent_dim);
+  const std::size_t names = res.parameter_names.size();
+  check_rom(path, rom);
+  const std::size_t n = rom.decoded_X.size() / 3;
   if (n > 0 && xdmf_path_for(path) == path)
     bad(path, "a ROM file cannot have the extension .xmf of its XDMF side file");
   AtomicFile out(path);
@@ -125,46 +232,11 @@ void save_rom(const std::string& path, const RomFile& rom) {
     write_dataset(latent, "xhat", hdf5::Element::float64, res.xhat, {B, frames, r});
     write_dataset(latent, "xhatdot", hdf5::Element::float64, res.xhatdot, {B, frames, r});
 
-    hdf5::Group outcome = file.create_group("outcome");
-    std::vector<std::int64_t> flags, completed, regularized, failures, fallbacks;
-    std::vector<double> condition, stopped;
-    std::vector<std::string> messages, warnings;
-    for (const auto& o : res.outcomes) {
-      flags.push_back(o.flags);
-      completed.push_back(o.frames_completed);
-      regularized.push_back(o.regularized_steps);
-      failures.push_back(o.inversion_failures);
-      fallbacks.push_back(o.inversion_fallbacks);
-      warnings.push_back(o.warning);
-      condition.push_back(o.max_condition);
-      stopped.push_back(o.stopped_at);
-      messages.push_back(o.message);
-    }
-    outcome.create_string_list("messages", messages);
-    outcome.create_string_list("warnings", warnings);
-    write_dataset(outcome, "flags", hdf5::Element::int64, flags, {B});
-    write_dataset(outcome, "frames_completed", hdf5::Element::int64, completed, {B});
-    write_dataset(outcome, "regularized_steps", hdf5::Element::int64, regularized, {B});
-    write_dataset(outcome, "inversion_failures", hdf5::Element::int64, failures, {B});
-    write_dataset(outcome, "inversion_fallbacks", hdf5::Element::int64, fallbacks, {B});
-    write_dataset(outcome, "max_condition", hdf5::Element::float64, condition, {B});
-    write_dataset(outcome, "stopped_at", hdf5::Element::float64, stopped, {B});
+    write_outcomes(file, res.outcomes);
 
     hdf5::Group samples = file.create_group("samples");
     write_dataset(samples, "indices", hdf5::Element::int64, to_int64(rom.samples), {rom.samples.size()});
-
-    hdf5::Group reduction = file.create_group("hyper_reduction");
-    write_dataset(reduction, "source_points", hdf5::Element::int64, to_int64(sets.source_points),
-                  {sets.source_points.size()});
-    write_dataset(reduction, "nodes", hdf5::Element::int64, to_int64(sets.nodes), {sets.nodes.size()});
-    write_dataset(reduction, "node_offsets", hdf5::Element::int64, to_int64(sets.node_offsets),
-                  {sets.node_offsets.size()});
-    write_dataset(reduction, "node_sources", hdf5::Element::int64, to_int64(sets.node_sources),
-                  {sets.node_sources.size()});
-    write_dataset(reduction, "quadrature_x", hdf5::Element::float64, sets.quadrature_x,
-                  {sets.quadrature_weight.size(), 3});
-    write_dataset(reduction, "quadrature_weight", hdf5::Element::float64, sets.quadrature_weight,
-                  {sets.quadrature_weight.size()});
+    write_hyper_reduction(file, rom.sets);
 
     if (n > 0) {
       hdf5::Group decoded = file.create_group("decoded");
@@ -192,18 +264,12 @@ void save_rom(const std::string& path, const RomFile& rom) {
 }
 
 RomFile load_rom(const std::string& path) {
-  std::error_code error;
-  if (!std::filesystem::is_regular_file(path, error)) bad(path, "no such file");
-  const hdf5::File file = hdf5::File::open(path);
-  if (!file.has_attribute("format") || file.string_attribute("format") != rom_format)
-    bad(path, "not an mpmrom reduced-model (ROM) file");
-  const auto version = file.integer_attribute("format_version");
+  std::int64_t version = 0;
   // Versions 1 and 2 store variable-length string attributes (refused by the HDF5 layer unless trusted); version 1
   // also keeps the per-rollout strings as attributes.
-  if (version < 1 || version > rom_format_version)
-    bad(path, "ROM format version " + std::to_string(version) + " is not supported (this build reads versions 1 to " +
-                  std::to_string(rom_format_version) + ")");
-  if (!file.has_attribute("complete") || file.integer_attribute("complete") != 1) bad(path, "incomplete ROM file");
+  const hdf5::File file = impl::open_checked(path, {rom_format, rom_format_version, "ROM", "no such file",
+                                                    "not an mpmrom reduced-model (ROM) file", "incomplete ROM file"},
+                                             &version);
   for (const char* group : {"parameters", "latent", "outcome", "samples"})
     if (!file.has_child(group)) bad(path, std::string("missing group /") + group);
   RomFile rom;
@@ -221,11 +287,7 @@ RomFile load_rom(const std::string& path) {
   RomResult& res = rom.result;
   const hdf5::Group parameters = file.group("parameters");
   res.parameter_names = parameters.string_list_attribute("names");
-  // Version 1 kept the per-rollout strings in attributes, which HDF5 caps at 64 kB (about 10^4 rollouts).
-  const auto per_rollout_strings = [&](const hdf5::Group& group, const std::string& name) {
-    return version == 1 ? group.string_list_attribute(name) : group.dataset(name).read_strings();
-  };
-  const auto splits = per_rollout_strings(parameters, "split");
+  const auto splits = per_rollout_strings(parameters, "split", version);
   const std::size_t B = splits.size(), names = res.parameter_names.size();
   const auto values = impl::read_checked(path, parameters.dataset("values"), {B, names}, "(rollouts, parameters)");
   for (std::size_t b = 0; b < B; ++b)
@@ -245,69 +307,14 @@ RomFile load_rom(const std::string& path) {
   res.xhat = impl::read_checked(path, latent.dataset("xhat"), {B, frames, r}, "");
   res.xhatdot = impl::read_checked(path, latent.dataset("xhatdot"), {B, frames, r}, "(like xhat)");
 
-  const hdf5::Group outcome = file.group("outcome");
-  const auto messages = per_rollout_strings(outcome, "messages");
-  if (messages.size() != B) bad(path, "/outcome messages: one per rollout expected");
-  const auto flags = impl::read_checked(path, outcome.dataset("flags"), {B}, "(one per rollout)");
-  const auto completed = impl::read_checked(path, outcome.dataset("frames_completed"), {B}, "(one per rollout)");
-  const auto regularized = impl::read_checked(path, outcome.dataset("regularized_steps"), {B}, "(one per rollout)");
-  const auto failures = impl::read_checked(path, outcome.dataset("inversion_failures"), {B}, "(one per rollout)");
-  const auto condition = impl::read_checked(path, outcome.dataset("max_condition"), {B}, "(one per rollout)");
-  const auto stopped = impl::read_checked(path, outcome.dataset("stopped_at"), {B}, "(one per rollout)");
-  // Files written before the stability safeguards have no warnings or fallbacks: none to report.
-  std::vector<std::string> warnings(B);
-  if (version > 1 || outcome.has_attribute("warnings")) warnings = per_rollout_strings(outcome, "warnings");
-  if (warnings.size() != B) bad(path, "/outcome warnings: one per rollout expected");
-  std::vector<double> fallbacks(B, 0.0);
-  if (outcome.has_child("inversion_fallbacks"))
-    fallbacks = impl::read_checked(path, outcome.dataset("inversion_fallbacks"), {B}, "(one per rollout)");
-  const auto flag_bits = impl::checked_integers<int>(path, "/outcome/flags", flags, 0);
-  const auto frames_done = impl::checked_integers<int>(path, "/outcome/frames_completed", completed, 0, double(frames));
-  const auto regularized_steps = impl::checked_integers<long>(path, "/outcome/regularized_steps", regularized, 0);
-  const auto failed_inversions = impl::checked_integers<long>(path, "/outcome/inversion_failures", failures, 0);
-  const auto inversion_fallbacks = impl::checked_integers<long>(path, "/outcome/inversion_fallbacks", fallbacks, 0);
-  for (std::size_t b = 0; b < B; ++b) {
-    RolloutOutcome o;
-    o.flags = flag_bits[b];
-    o.frames_completed = frames_done[b];
-    o.regularized_steps = regularized_steps[b];
-    o.inversion_failures = failed_inversions[b];
-    o.max_condition = condition[b];
-    o.stopped_at = stopped[b];
-    o.message = messages[b];
-    o.warning = warnings[b];
-    o.inversion_fallbacks = inversion_fallbacks[b];
-    res.outcomes.push_back(o);
-  }
+  res.outcomes = read_outcomes(path, file.group("outcome"), B, frames, version);
   const hdf5::Group samples = file.group("samples");
   const auto sample_shape = samples.dataset("indices").shape();
   if (sample_shape.size() != 1) bad(path, "/samples/indices must be a vector");
   rom.samples = impl::checked_integers<int>(
       path, "/samples/indices", impl::read_checked(path, samples.dataset("indices"), sample_shape, ""), 0);
-  if (file.has_child("hyper_reduction")) {  // absent in files written before it existed
-    const hdf5::Group reduction = file.group("hyper_reduction");
-    const auto indices = [&](const char* name) {
-      const auto shape = reduction.dataset(name).shape();
-      if (shape.size() != 1) bad(path, std::string("/hyper_reduction/") + name + " must be a vector");
-      return impl::checked_integers<int>(path, std::string("/hyper_reduction/") + name,
-                                         impl::read_checked(path, reduction.dataset(name), shape, ""), 0);
-    };
-    HyperReduction& sets = rom.sets;
-    sets.samples = rom.samples;
-    sets.source_points = indices("source_points");
-    sets.nodes = indices("nodes");
-    sets.node_offsets = indices("node_offsets");
-    sets.node_sources = indices("node_sources");
-    const auto weight_shape = reduction.dataset("quadrature_weight").shape();
-    if (weight_shape.size() != 1) bad(path, "/hyper_reduction/quadrature_weight must be a vector");
-    sets.quadrature_weight = impl::read_checked(path, reduction.dataset("quadrature_weight"), weight_shape, "");
-    sets.quadrature_x = impl::read_checked(path, reduction.dataset("quadrature_x"), {weight_shape[0], 3},
-                                           "(quadrature points, 3)");
-    if (!sets.node_offsets.empty() &&
-        (sets.node_offsets.size() != sets.nodes.size() + 1 || sets.node_offsets.front() != 0 ||
-         std::size_t(sets.node_offsets.back()) != sets.node_sources.size()))
-      bad(path, "/hyper_reduction/node_offsets does not match nodes and node_sources");
-  }
+  if (file.has_child("hyper_reduction"))  // absent in files written before it existed
+    rom.sets = read_hyper_reduction(path, file.group("hyper_reduction"), rom.samples);
   if (file.has_child("decoded")) {
     const hdf5::Group decoded = file.group("decoded");
     const auto X_shape = decoded.dataset("X").shape();

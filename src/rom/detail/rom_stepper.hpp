@@ -1,5 +1,6 @@
 // The reduced model's time stepper, generic in the manifold (src/rom/kernels/manifold.hpp) so that tests can drive it
-// with analytic maps; src/rom/rom.cpp instantiates it for the trained network. Private to the library and its tests.
+// with analytic maps; src/rom/rollouts.cpp instantiates it for the trained network. Private to the library and its
+// tests.
 #pragma once
 
 #include <Kokkos_Core.hpp>

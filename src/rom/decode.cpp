@@ -1,0 +1,71 @@
+// The trained network evaluated for the reduced model: positions at the training codes, Jacobians, decoded fields.
+#include <Kokkos_Core.hpp>
+
+#include <vector>
+
+#include "manifold/device_data.hpp"
+#include "mpmrom/rom.hpp"
+#include "rom/detail/decoder.hpp"
+
+namespace mpmrom {
+namespace {
+
+using ExecutionSpace = Kokkos::DefaultExecutionSpace;
+using MemorySpace = ExecutionSpace::memory_space;
+using Vector = impl::DeviceVector;
+using Matrix = impl::DeviceMatrix;
+using Cube = impl::DeviceCube;
+using Quad = impl::DeviceQuad;
+using impl::download;
+using impl::upload;
+using Codes = nn::CodesView<real_t, MemorySpace>;
+
+struct NetworkFields {
+  Cube x, v;  // (codes, n, 3)
+  Quad F, J;  // (codes, n, 3, 3), (codes, n, 3, r)
+};
+
+// The network at points X (n, 3) for each of codes (count, r): positions, deformation gradients, dg/dxhat and, given
+// rates (count, r; nullptr: none), velocities.
+NetworkFields evaluate_network(const Model& model, const std::vector<double>& X, const std::vector<double>& codes,
+                               const std::vector<double>* rates) {
+  const int r = model.latent_dim;
+  const std::size_t n = X.size() / 3, count = codes.size() / std::size_t(r);
+  const Vector params = upload<Vector>("mpmrom::rom::params", model.weights, model.layout().num_params);
+  NetworkFields out{Cube("mpmrom::rom::decode_x", count, n, 3),
+                    rates == nullptr ? Cube() : Cube("mpmrom::rom::decode_v", count, n, 3),
+                    Quad("mpmrom::rom::decode_F", count, n, 3, 3), Quad("mpmrom::rom::decode_J", count, n, 3, r)};
+  nn::evaluate_with_jacobians(ExecutionSpace(), impl::device_mlp(model, params),
+                              nn::PointsView<real_t, MemorySpace>(upload<Matrix>("X", X, n, 3)),
+                              Codes(upload<Matrix>("codes", codes, count, r)),
+                              rates == nullptr ? Codes() : Codes(upload<Matrix>("rates", *rates, count, r)), out.x,
+                              out.F, out.J, out.v);
+  return out;
+}
+
+}  // namespace
+
+std::vector<double> impl::training_positions(const Model& model) {
+  const nn::MlpLayout layout = model.layout();
+  const Vector params = upload<Vector>("mpmrom::rom::params", model.weights, layout.num_params);
+  const auto mlp = impl::device_mlp(model, params);
+  const std::size_t P = model.num_points(), C = model.num_codes();
+  const Matrix X = upload<Matrix>("mpmrom::rom::X", model.X, P, 3);
+  const Matrix codes = upload<Matrix>("mpmrom::rom::codes", model.codes, C, model.latent_dim);
+  Cube g("mpmrom::rom::training_positions", C, P, 3);
+  nn::evaluate(ExecutionSpace(), mlp, nn::PointsView<real_t, MemorySpace>(X), Codes(codes), g);
+  return download(g);
+}
+
+std::vector<double> impl::decoder_jacobians(const Model& model, const std::vector<double>& X,
+                                            const std::vector<double>& codes) {
+  return download(evaluate_network(model, X, codes, nullptr).J);
+}
+
+DecodedFields decode(const Model& model, const std::vector<double>& X, const std::vector<double>& codes,
+                     const std::vector<double>& rates) {
+  const NetworkFields fields = evaluate_network(model, X, codes, &rates);
+  return {download(fields.x), download(fields.v), download(fields.F)};
+}
+
+}  // namespace mpmrom

@@ -1,0 +1,18 @@
+// The reduced model's evaluations of the trained network on the host's behalf (rom/decode.cpp): kept in one translation
+// unit, which instantiates the network's kernels for the ROM stage.
+#pragma once
+
+#include <vector>
+
+#include "mpmrom/model.hpp"
+
+namespace mpmrom::impl {
+
+// Positions of every reference point for every training code of the model: (codes, points, 3).
+std::vector<double> training_positions(const Model& model);
+
+// dg/dxhat of the model's network at points X (n, 3) for each of codes (count, r): (count, n, 3, r).
+std::vector<double> decoder_jacobians(const Model& model, const std::vector<double>& X,
+                                      const std::vector<double>& codes);
+
+}  // namespace mpmrom::impl

@@ -1,0 +1,83 @@
+// The reduced model's settings: the method and selection names, their checks and JSON, and the summary of a
+// hyper-reduction.
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+#include "mpmrom/rom.hpp"
+
+namespace mpmrom {
+
+RomMethod rom_method_from_string(const std::string& name) {
+  if (name == "point") return RomMethod::MaterialPoint;
+  if (name == "node") return RomMethod::SampleNode;
+  throw std::invalid_argument("method must be 'point' (Algorithm 1) or 'node' (Algorithm 2), not '" + name + "'");
+}
+
+std::string to_string(RomMethod method) { return method == RomMethod::MaterialPoint ? "point" : "node"; }
+
+SampleSelection sample_selection_from_string(const std::string& name) {
+  if (name == "region") return SampleSelection::Region;
+  if (name == "random") return SampleSelection::Random;
+  if (name == "greedy") return SampleSelection::Greedy;
+  throw std::invalid_argument("selection must be 'region', 'random' or 'greedy', not '" + name + "'");
+}
+
+std::string to_string(SampleSelection selection) {
+  switch (selection) {
+    case SampleSelection::Region: return "region";
+    case SampleSelection::Random: return "random";
+    case SampleSelection::Greedy: return "greedy";
+  }
+  return "";
+}
+
+nlohmann::json RomSettings::to_json() const {
+  return {{"method", to_string(method)},
+          {"samples", samples},
+          {"selection", to_string(selection)},
+          {"seed", seed},
+          {"cfl", cfl},
+          {"envelope_margin", envelope_margin},
+          {"quadrature_order", quadrature_order},
+          {"newton_tolerance", newton_tolerance},
+          {"newton_iterations", newton_iterations},
+          {"projection_iterations", projection_iterations},
+          {"max_condition", max_condition},
+          {"regularization", regularization},
+          {"regularize", regularize},
+          {"inversion_fallback", inversion_fallback},
+          {"max_failed_inversions", max_failed_inversions},
+          {"energy_growth", energy_growth},
+          {"end_time", end_time}};
+}
+
+void RomSettings::validate() const {
+  if (samples < 0) throw std::invalid_argument("--samples must be >= 0 (0: all points)");
+  // Above 1 lies beyond the explicit FOM's limit; the reduced dynamics (r degrees of freedom) may still be stable.
+  if (cfl < 0 || cfl > 10) throw std::invalid_argument("--cfl must be in (0, 10] (0: the scene's)");
+  if (!(envelope_margin >= 0) || envelope_margin > 4) throw std::invalid_argument("--margin must be in [0, 4] cells");
+  if (quadrature_order < 1 || quadrature_order > 3) throw std::invalid_argument("--quadrature must be 1, 2 or 3");
+  if (!(newton_tolerance > 0)) throw std::invalid_argument("--newton-tolerance must be positive");
+  if (projection_iterations < 0 || projection_iterations > 10)
+    throw std::invalid_argument("--projection-iterations must be in [0, 10]");
+  if (newton_iterations < 1) throw std::invalid_argument("--newton-iterations must be >= 1");
+  if (max_condition < 0 || regularization < 0)
+    throw std::invalid_argument("--max-condition and --regularization must be >= 0");
+  if (!(max_failed_inversions >= 0 && max_failed_inversions <= 1))
+    throw std::invalid_argument("--max-failed-inversions must be a fraction in [0, 1]");
+  if (!(energy_growth >= 0) || !std::isfinite(energy_growth))
+    throw std::invalid_argument("--energy-growth must be >= 0 (0: no check)");
+  if (!(end_time >= 0) || !std::isfinite(end_time)) throw std::invalid_argument("--end-time must be >= 0 (0: the scene's)");
+}
+
+nlohmann::json HyperReduction::summary() const {
+  return {{"samples", samples.size()},
+          {"source_points", source_points.size()},
+          {"neighbours", source_points.empty() ? 0 : source_points.size() - samples.size()},
+          {"quadrature_points", quadrature_weight.size()},
+          {"nodes", nodes.size()},
+          {"node_source_pairs", node_sources.size()}};
+}
+
+}  // namespace mpmrom
