@@ -77,7 +77,7 @@ void add_bench(CLI::App& app, Commands& commands) {
   auto* command = app.add_subcommand("bench", "Time the solvers; --json prints one benchmark record on stdout");
   command->require_subcommand(1);
   auto* bench_fom_command = command->add_subcommand("fom", "Full-order MPM steps per second on a scene");
-  bench_fom_command->add_option("scene", o->scene_path, "Scene file (TOML)")->required()->check(CLI::ExistingFile);
+  add_input(bench_fom_command, "scene", o->scene_path, "Scene file (TOML)");
   bench_fom_command->add_option("--set", o->overrides, "Override: parameter=value, or a scene entry like grid.dx=0.02");
   bench_fom_command->add_option("--steps", o->bench_steps, "Timed steps")->check(CLI::PositiveNumber);
   bench_fom_command->add_option("--warmup", o->bench_warmup, "Untimed steps first")->check(CLI::NonNegativeNumber);

@@ -33,6 +33,13 @@ CLI::Option* add_defaulted(CLI::App* command, const std::string& name, T& value,
   return command->add_option(name, value, help)->capture_default_str();
 }
 
+// A required input that must exist: a file (the default) or, with CLI::ExistingPath, a file or a directory.
+template <class T>
+CLI::Option* add_input(CLI::App* command, const std::string& name, T& value, const std::string& help,
+                       const CLI::Validator& exists = CLI::ExistingFile) {
+  return command->add_option(name, value, help)->required()->check(exists);
+}
+
 // The network's shape, as train and bench nn take it.
 inline void add_network_shape(CLI::App* command, int& latent_dim, int& width, int& depth) {
   add_defaulted(command, "--latent", latent_dim, "Latent dimension r");

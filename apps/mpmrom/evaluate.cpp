@@ -48,10 +48,8 @@ int run(Options o, const Context& context) {
 void add_evaluate(CLI::App& app, Commands& commands) {
   auto o = std::make_shared<Options>();
   auto* command = app.add_subcommand("evaluate", "Errors of the rollouts in ROM.h5 against full-order reference runs");
-  command->add_option("rom", o->rom_path, "ROM file (from mpmrom rollout)")->required()->check(CLI::ExistingFile);
-  command->add_option("references", o->references, "Sweep directories or snapshot files")
-      ->required()
-      ->check(CLI::ExistingPath);
+  add_input(command, "rom", o->rom_path, "ROM file (from mpmrom rollout)");
+  add_input(command, "references", o->references, "Sweep directories or snapshot files", CLI::ExistingPath);
   command->add_option("--model", o->evaluate_model, "Model file (default: the one ROM.h5 names)");
   command->add_flag("--json", o->evaluate_json, "Print the errors as one JSON object on stdout");
   command->footer("Example: mpmrom evaluate rom.h5 data/poke --json");

@@ -37,9 +37,7 @@ void add_pipeline(CLI::App& app, Commands& commands) {
   auto o = std::make_shared<Options>();
   auto* command = app.add_subcommand(
       "pipeline", "The whole chain: sweep, FOM resolutions, training, ROM configurations, report with charts");
-  command->add_option("scene", o->pipeline_settings.scene_path, "Scene file (TOML) with a [design] table")
-      ->required()
-      ->check(CLI::ExistingFile);
+  add_input(command, "scene", o->pipeline_settings.scene_path, "Scene file (TOML) with a [design] table");
   command->add_option("--out", o->pipeline_settings.out_dir, "Output directory (report.md, report.json, charts, data)")
       ->required();
   add_defaulted(command, "--fom-refinements", o->pipeline_settings.fom_refinements,

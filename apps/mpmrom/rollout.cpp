@@ -164,10 +164,8 @@ int run(Options o, const Context& context) {
 void add_rollout(CLI::App& app, Commands& commands) {
   auto o = std::make_shared<Options>();
   auto* command = app.add_subcommand("rollout", "Run the reduced model: one or many rollouts in one batch -> ROM.h5");
-  command->add_option("model", o->model_path, "Model file (from mpmrom train)")->required()->check(CLI::ExistingFile);
-  command->add_option("scene", o->scene_path, "Scene file (TOML) the model was trained on")
-      ->required()
-      ->check(CLI::ExistingFile);
+  add_input(command, "model", o->model_path, "Model file (from mpmrom train)");
+  add_input(command, "scene", o->scene_path, "Scene file (TOML) the model was trained on");
   command->add_option("--out", o->rom_path, "ROM file to write (HDF5)")->required();
   add_defaulted(command, "--method", o->rom_method,
                 "point (Algorithm 1, material-point-centric) or node (Algorithm 2)");

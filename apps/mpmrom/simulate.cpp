@@ -18,7 +18,7 @@ void add_simulate(CLI::App& app, Commands& commands) {
   };
   auto o = std::make_shared<Options>();
   auto* simulate = app.add_subcommand("simulate", "Run the full-order MPM model on a scene; write one snapshot file");
-  simulate->add_option("scene", o->scene_path, "Scene file (TOML)")->required()->check(CLI::ExistingFile);
+  add_input(simulate, "scene", o->scene_path, "Scene file (TOML)");
   simulate->add_option("--out", o->out_path, "Snapshot file to write (HDF5; an XDMF side file goes next to it)")
       ->required();
   simulate->add_option("--set", o->overrides, "Override: parameter=value, or a scene entry like material.density=500");
@@ -43,9 +43,7 @@ void add_sweep(CLI::App& app, Commands& commands) {
   };
   auto o = std::make_shared<Options>();
   auto* sweep = app.add_subcommand("sweep", "Run the scene's parameter design: DIR/runs/*.h5 and DIR/design.csv");
-  sweep->add_option("scene", o->scene_path, "Scene file (TOML) with a [design] table")
-      ->required()
-      ->check(CLI::ExistingFile);
+  add_input(sweep, "scene", o->scene_path, "Scene file (TOML) with a [design] table");
   sweep->add_option("--out", o->sweep_dir, "Output directory")->required();
   sweep->add_option("--p2g", o->p2g, kP2GHelp)->transform(CLI::CheckedTransformer(kP2GStrategies, CLI::ignore_case));
   sweep->add_flag("--resume", o->resume,

@@ -44,12 +44,8 @@ void add_stability(CLI::App& app, Commands& commands) {
       "stability",
       "Stability map: where the FOM and each ROM configuration break (time step, horizon, extrapolation, "
       "samples, material, load)");
-  command->add_option("scene", o->stability_settings.scene_path, "Scene file (TOML) of the sweep the model learned")
-      ->required()
-      ->check(CLI::ExistingFile);
-  command->add_option("--model", o->stability_settings.model_path, "Model file (from mpmrom train)")
-      ->required()
-      ->check(CLI::ExistingFile);
+  add_input(command, "scene", o->stability_settings.scene_path, "Scene file (TOML) of the sweep the model learned");
+  add_input(command, "--model", o->stability_settings.model_path, "Model file (from mpmrom train)");
   command->add_option("--data", o->stability_settings.data_dir, "The sweep the model was trained on (greedy samples)")
       ->check(CLI::ExistingDirectory);
   command->add_option("--out", o->stability_settings.out_dir, "Output directory (stability.md, .json, charts)")

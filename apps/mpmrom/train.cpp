@@ -102,9 +102,8 @@ int train(const TrainOptions& o, const Context& context) {
 void add_train(CLI::App& app, Commands& commands) {
   auto o = std::make_shared<TrainOptions>();
   auto* command = app.add_subcommand("train", "Train the deformation map g(X; xhat) on full-order runs (loss (7))");
-  command->add_option("data", o->train_inputs, "Sweep directories (design.csv splits train/test) or snapshot files")
-      ->required()
-      ->check(CLI::ExistingPath);
+  add_input(command, "data", o->train_inputs, "Sweep directories (design.csv splits train/test) or snapshot files",
+            CLI::ExistingPath);
   command->add_option("--out", o->model_path, "Model file to write (HDF5)")->required();
   add_network_shape(command, o->training.latent_dim, o->training.width, o->training.depth);
   add_defaulted(command, "--lambda-grad", o->training.lambda_gradient,

@@ -40,12 +40,9 @@ void add_upgrade(CLI::App& app, Commands& commands) {
   auto o = std::make_shared<Options>();
   auto* command = app.add_subcommand(
       "upgrade", "Rewrite files of older mpmrom versions (variable-length strings) in the current formats, in place");
-  command
-      ->add_option("files", o->upgrade_files,
-                   "Snapshot, model or ROM files you trust (their origin: they are read "
-                   "with libhdf5's unchecked variable-length strings)")
-      ->required()
-      ->check(CLI::ExistingFile);
+  add_input(command, "files", o->upgrade_files,
+            "Snapshot, model or ROM files you trust (their origin: they are read "
+            "with libhdf5's unchecked variable-length strings)");
   command->footer("Example: mpmrom upgrade data/poke/runs/*.h5 poke_model.h5");
   commands.push_back({command, nullptr, [o](const Context& context) { return run(*o, context); }});
 }
