@@ -140,47 +140,39 @@ void check_jacobians_against_finite_differences() {
   // |g| < 1; h = 1e-5 balances them near 1e-10, and the factor 100 covers the O(1) constants.
   const double h = 1e-5;
   const double tol = 100 * (h * h + epsilon_of<double>() / h);
-  for (int dim = 0; dim < 3; ++dim) {
-    std::vector<double> Xp = X, Xm = X;
-    for (int p = 0; p < P; ++p) {
-      Xp[p * 3 + dim] += h;
-      Xm[p * 3 + dim] -= h;
+  // (g(X + h dX, codes + h dc) - g(X - h dX, codes - h dc)) / 2h against the kernel's derivative along (dX, dc)
+  const auto expect_derivative = [&](const auto& kernel, const std::vector<double>& dX, const std::vector<double>& dc,
+                                     double tolerance, const std::string& what) {
+    std::vector<double> Xp = X, Xm = X, cp = codes, cm = codes;
+    for (std::size_t i = 0; i < X.size(); ++i) {
+      Xp[i] += h * dX[i];
+      Xm[i] -= h * dX[i];
     }
-    const auto gp = positions<ExecutionSpace>(net, Xp, codes), gm = positions<ExecutionSpace>(net, Xm, codes);
+    for (std::size_t i = 0; i < codes.size(); ++i) {
+      cp[i] += h * dc[i];
+      cm[i] -= h * dc[i];
+    }
+    const auto gp = positions<ExecutionSpace>(net, Xp, cp), gm = positions<ExecutionSpace>(net, Xm, cm);
     for (int b = 0; b < B; ++b)
       for (int p = 0; p < P; ++p)
         for (int k = 0; k < 3; ++k) {
           const std::size_t i = (b * P + p) * 3 + k;
-          EXPECT_NEAR(Fh(b, p, k, dim), (gp[i] - gm[i]) / (2 * h), tol) << "dg/dX b=" << b << " p=" << p;
+          EXPECT_NEAR(kernel(b, p, k), (gp[i] - gm[i]) / (2 * h), tolerance) << what << " b=" << b << " p=" << p;
         }
+  };
+  const std::vector<double> no_dX(X.size(), 0.0), no_dc(codes.size(), 0.0);
+  for (int dim = 0; dim < 3; ++dim) {
+    std::vector<double> dX = no_dX;
+    for (int p = 0; p < P; ++p) dX[p * 3 + dim] = 1;
+    expect_derivative([&](int b, int p, int k) { return Fh(b, p, k, dim); }, dX, no_dc, tol, "dg/dX");
   }
   for (int q = 0; q < r; ++q) {
-    std::vector<double> cp = codes, cm = codes;
-    for (int b = 0; b < B; ++b) {
-      cp[b * r + q] += h;
-      cm[b * r + q] -= h;
-    }
-    const auto gp = positions<ExecutionSpace>(net, X, cp), gm = positions<ExecutionSpace>(net, X, cm);
-    for (int b = 0; b < B; ++b)
-      for (int p = 0; p < P; ++p)
-        for (int k = 0; k < 3; ++k) {
-          const std::size_t i = (b * P + p) * 3 + k;
-          EXPECT_NEAR(Jh(b, p, k, q), (gp[i] - gm[i]) / (2 * h), tol) << "dg/dxhat b=" << b << " q=" << q;
-        }
+    std::vector<double> dc = no_dc;
+    for (int b = 0; b < B; ++b) dc[b * r + q] = 1;
+    expect_derivative([&](int b, int p, int k) { return Jh(b, p, k, q); }, no_dX, dc, tol, "dg/dxhat");
   }
   // The directional derivative along the rate: the rates are O(2), so the step along them is h.
-  std::vector<double> cp = codes, cm = codes;
-  for (std::size_t i = 0; i < codes.size(); ++i) {
-    cp[i] += h * rates[i];
-    cm[i] -= h * rates[i];
-  }
-  const auto gp = positions<ExecutionSpace>(net, X, cp), gm = positions<ExecutionSpace>(net, X, cm);
-  for (int b = 0; b < B; ++b)
-    for (int p = 0; p < P; ++p)
-      for (int k = 0; k < 3; ++k) {
-        const std::size_t i = (b * P + p) * 3 + k;
-        EXPECT_NEAR(vh(b, p, k), (gp[i] - gm[i]) / (2 * h), 4 * tol) << "velocity b=" << b;
-      }
+  expect_derivative([&](int b, int p, int k) { return vh(b, p, k); }, no_dX, rates, 4 * tol, "velocity");
 }
 
 // A small auto-decoder problem: 4 snapshots of 6 points; a minibatch of 3 snapshots (one repeated through the rate
