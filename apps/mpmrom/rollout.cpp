@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
+#include <functional>
 #include <iostream>
 #include <memory>
 #include <string>
@@ -29,6 +30,91 @@ struct Options {
   bool rollout_json = false;
   RolloutCheckpoint rollout_checkpoint;
 };
+
+// The rollouts' timings as the ROM file and the benchmark record carry them.
+nlohmann::json rollout_timing(const mpmrom::RomResult& result, std::size_t rollouts) {
+  const double rollout_steps = double(result.steps) * double(rollouts);
+  const double simulated = result.times.empty() ? 0.0 : result.times.back() - result.times.front();
+  return {
+      {"steps", result.steps},
+      {"simulated_seconds", simulated},
+      // the cost users compare with the FOM's: wall time per simulated second, per rollout
+      {"rom_seconds_per_simulated_second", simulated > 0 ? result.step_seconds / (simulated * double(rollouts)) : 0.0},
+      {"rollouts", rollouts},
+      {"setup_seconds", result.setup_seconds},
+      {"step_seconds_total", result.step_seconds},
+      {"rom_step_seconds", result.steps > 0 ? result.step_seconds / result.steps : 0.0},
+      {"rom_rollout_steps_per_s", result.step_seconds > 0 ? rollout_steps / result.step_seconds : 0.0}};
+}
+
+// The decoded fields --decode asks for, at every frame of every rollout.
+void decode_rollouts(const Options& o, const mpmrom::Model& model, const mpmrom::Scene& scene, mpmrom::RomFile& file) {
+  if (o.decode_mode == "reference") {
+    file.decoded_X = model.X;
+  } else if (o.decode_mode == "lattice") {
+    if (!(o.decode_spacing > 0)) throw std::invalid_argument("--decode lattice needs --decode-spacing > 0");
+    for (const auto& body : scene.bodies)
+      for (const auto& p : mpmrom::lattice_points(body, o.decode_spacing))
+        file.decoded_X.insert(file.decoded_X.end(), p.begin(), p.end());
+  } else {
+    throw std::invalid_argument("--decode must be none, reference or lattice, not '" + o.decode_mode + "'");
+  }
+  const std::size_t frames = file.result.times.size(), r = std::size_t(file.result.latent_dim);
+  for (std::size_t b = 0; b < file.result.outcomes.size(); ++b) {
+    const std::vector<double> xhat(file.result.xhat.begin() + b * frames * r,
+                                   file.result.xhat.begin() + (b + 1) * frames * r);
+    const std::vector<double> xhatdot(file.result.xhatdot.begin() + b * frames * r,
+                                      file.result.xhatdot.begin() + (b + 1) * frames * r);
+    const auto fields = mpmrom::decode(model, file.decoded_X, xhat, xhatdot);
+    file.decoded_x.insert(file.decoded_x.end(), fields.x.begin(), fields.x.end());
+    file.decoded_v.insert(file.decoded_v.end(), fields.v.begin(), fields.v.end());
+    file.decoded_F.insert(file.decoded_F.end(), fields.F.begin(), fields.F.end());
+  }
+}
+
+// Each stopped rollout and warning on a line of its own, then (unless quiet) the batch's summary; returns the number
+// of stopped rollouts.
+int report_outcomes(const mpmrom::RomResult& result, bool quiet, const std::string& rom_path,
+                    const nlohmann::json& timing) {
+  int failed = 0;
+  for (std::size_t b = 0; b < result.outcomes.size(); ++b) {
+    const auto& outcome = result.outcomes[b];
+    if (!outcome.warning.empty())
+      std::cerr << "mpmrom rollout: warning: rollout " << b << ": " << outcome.warning << "\n";
+    if (!outcome.message.empty()) {
+      ++failed;
+      std::cerr << "mpmrom rollout: rollout " << b << " " << outcome.message << "\n";
+    }
+  }
+  if (!quiet) {
+    double worst = 0;
+    long regularized = 0, inversion = 0;
+    for (const auto& o : result.outcomes) {
+      worst = std::max(worst, o.max_condition);
+      regularized += o.regularized_steps;
+      inversion += o.inversion_failures;
+    }
+    std::fprintf(stderr,
+                 "mpmrom rollout: wrote %s: %zu rollouts x %ld steps in %.3f s (%.3g s per step, %.3g "
+                 "rollout-steps/s); largest normal-equation condition estimate %.3g, %ld regularised steps, "
+                 "%ld failed inversions\n",
+                 rom_path.c_str(), result.outcomes.size(), result.steps, result.step_seconds,
+                 timing["rom_step_seconds"].get<double>(), timing["rom_rollout_steps_per_s"].get<double>(), worst,
+                 regularized, inversion);
+  }
+  return failed;
+}
+
+// Progress lines of a batch: every frame, or five a run (set_verbosity).
+std::function<void(const mpmrom::RomProgress&)> rollout_progress(bool quiet, std::size_t rollouts) {
+  return [quiet, rollouts](const mpmrom::RomProgress& p) {
+    if (quiet || (!every_progress_line() && p.frame % std::max(1, p.frames / 5) != 0)) return;
+    const double rate = p.seconds > 0 ? double(p.steps) * double(rollouts) / p.seconds : 0;
+    const double left = p.frame > 0 ? p.seconds * (p.frames - p.frame) / p.frame : 0;
+    std::fprintf(stderr, "  frame %d/%d  t = %.4f s  %ld steps  %.3g rollout-steps/s  %s left\n", p.frame, p.frames,
+                 p.time, p.steps, rate, duration_string(left).c_str());
+  };
+}
 
 // o is a copy: the run completes its settings.
 int run(Options o, const Context& context) {
@@ -58,16 +144,8 @@ int run(Options o, const Context& context) {
     std::filesystem::remove(own_checkpoint, ignored);
     std::filesystem::remove(own_checkpoint + ".prev", ignored);
   };
-  const auto result = mpmrom::run_rollouts(
-      world, model, o.scene_path, names, cases, o.rom_settings, reduction,
-      [quiet, rollouts = cases.size()](const mpmrom::RomProgress& p) {
-        if (quiet || (!every_progress_line() && p.frame % std::max(1, p.frames / 5) != 0)) return;
-        const double rate = p.seconds > 0 ? double(p.steps) * double(rollouts) / p.seconds : 0;
-        const double left = p.frame > 0 ? p.seconds * (p.frames - p.frame) / p.frame : 0;
-        std::fprintf(stderr, "  frame %d/%d  t = %.4f s  %ld steps  %.3g rollout-steps/s  %s left\n", p.frame, p.frames,
-                     p.time, p.steps, rate, duration_string(left).c_str());
-      },
-      o.rollout_checkpoint);
+  const auto result = mpmrom::run_rollouts(world, model, o.scene_path, names, cases, o.rom_settings, reduction,
+                                           rollout_progress(quiet, cases.size()), o.rollout_checkpoint);
   if (!world.is_root()) {  // rank 0 writes the batch; the checkpoints go once it is written
     world.barrier();
     remove_checkpoint();
@@ -83,68 +161,12 @@ int run(Options o, const Context& context) {
   file.hyper_reduction = reduction.summary();
   file.samples = reduction.samples;
   file.sets = reduction;
-  const double rollout_steps = double(result.steps) * double(cases.size());
-  const double simulated = result.times.empty() ? 0.0 : result.times.back() - result.times.front();
-  file.timing = {{"steps", result.steps},
-                 {"simulated_seconds", simulated},
-                 // the cost users compare with the FOM's: wall time per simulated second, per rollout
-                 {"rom_seconds_per_simulated_second",
-                  simulated > 0 ? result.step_seconds / (simulated * double(cases.size())) : 0.0},
-                 {"rollouts", cases.size()},
-                 {"setup_seconds", result.setup_seconds},
-                 {"step_seconds_total", result.step_seconds},
-                 {"rom_step_seconds", result.steps > 0 ? result.step_seconds / result.steps : 0.0},
-                 {"rom_rollout_steps_per_s", result.step_seconds > 0 ? rollout_steps / result.step_seconds : 0.0}};
-  if (o.decode_mode != "none") {
-    if (o.decode_mode == "reference") {
-      file.decoded_X = model.X;
-    } else if (o.decode_mode == "lattice") {
-      if (!(o.decode_spacing > 0)) throw std::invalid_argument("--decode lattice needs --decode-spacing > 0");
-      for (const auto& body : scene.bodies)
-        for (const auto& p : mpmrom::lattice_points(body, o.decode_spacing))
-          file.decoded_X.insert(file.decoded_X.end(), p.begin(), p.end());
-    } else {
-      throw std::invalid_argument("--decode must be none, reference or lattice, not '" + o.decode_mode + "'");
-    }
-    const std::size_t frames = result.times.size(), r = std::size_t(result.latent_dim);
-    for (std::size_t b = 0; b < cases.size(); ++b) {
-      const std::vector<double> xhat(result.xhat.begin() + b * frames * r, result.xhat.begin() + (b + 1) * frames * r);
-      const std::vector<double> xhatdot(result.xhatdot.begin() + b * frames * r,
-                                        result.xhatdot.begin() + (b + 1) * frames * r);
-      const auto fields = mpmrom::decode(model, file.decoded_X, xhat, xhatdot);
-      file.decoded_x.insert(file.decoded_x.end(), fields.x.begin(), fields.x.end());
-      file.decoded_v.insert(file.decoded_v.end(), fields.v.begin(), fields.v.end());
-      file.decoded_F.insert(file.decoded_F.end(), fields.F.begin(), fields.F.end());
-    }
-  }
+  file.timing = rollout_timing(result, cases.size());
+  if (o.decode_mode != "none") decode_rollouts(o, model, scene, file);
   mpmrom::save_rom(o.rom_path, file);
   world.barrier();
   remove_checkpoint();
-  int failed = 0;
-  for (std::size_t b = 0; b < cases.size(); ++b) {
-    const auto& o = result.outcomes[b];
-    if (!o.warning.empty()) std::cerr << "mpmrom rollout: warning: rollout " << b << ": " << o.warning << "\n";
-    if (!o.message.empty()) {
-      ++failed;
-      std::cerr << "mpmrom rollout: rollout " << b << " " << o.message << "\n";
-    }
-  }
-  if (!quiet) {
-    double worst = 0;
-    long regularized = 0, inversion = 0;
-    for (const auto& o : result.outcomes) {
-      worst = std::max(worst, o.max_condition);
-      regularized += o.regularized_steps;
-      inversion += o.inversion_failures;
-    }
-    std::fprintf(stderr,
-                 "mpmrom rollout: wrote %s: %zu rollouts x %ld steps in %.3f s (%.3g s per step, %.3g "
-                 "rollout-steps/s); largest normal-equation condition estimate %.3g, %ld regularised steps, "
-                 "%ld failed inversions\n",
-                 o.rom_path.c_str(), cases.size(), result.steps, result.step_seconds,
-                 file.timing["rom_step_seconds"].get<double>(), file.timing["rom_rollout_steps_per_s"].get<double>(),
-                 worst, regularized, inversion);
-  }
+  const int failed = report_outcomes(result, quiet, o.rom_path, file.timing);
   if (o.rollout_json) {
     auto record = mpmrom::benchmark_record("rom_rollout", scene.name);
     record["particles"] = model.num_points();
