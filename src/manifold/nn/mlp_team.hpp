@@ -93,6 +93,8 @@ inline int lanes_for_width(int widest) {
 // written only where it is not null (and any_jacobian is true). weights: `net.values` or a copy of them in scratch;
 // scratch: net.thread_scratch_values() values of this thread, aligned to NeuronChannels<T>; out may sit in scratch (it is
 // written by the lanes, so read it after a team barrier).
+// One function of ~100 lines: the forward pass and the reverse sweeps hand the same scratch buffers back and forth
+// (h, next, adjoint, spare) between the team's barriers; split, each half would need the other's buffer roles.
 template <class Member, class T, class MemorySpace>
 KOKKOS_INLINE_FUNCTION void TeamMlpKinematics(const Member& member, const TeamMlp<T, MemorySpace>& net,
                                               const T* weights, T* scratch, bool active, const T X[3],
