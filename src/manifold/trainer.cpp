@@ -205,6 +205,17 @@ struct BenchRandom {
   }
 };
 
+// Seconds per call of run over `repeats` calls, after one call to warm up.
+template <class Run>
+double seconds_per_call(const ExecutionSpace& space, int repeats, const Run& run) {
+  run();
+  space.fence();
+  const auto start = SteadyClock::now();
+  for (int i = 0; i < repeats; ++i) run();
+  space.fence();
+  return seconds_since(start) / repeats;
+}
+
 // The forward pass with Jacobians of settings.codes random codes (and rates) at every point of X: result's evaluation
 // entries.
 void time_evaluation(const NnBenchmarkSettings& settings, const nn::Mlp<T, MemorySpace>& mlp, const Matrix& X,
@@ -224,12 +235,7 @@ void time_evaluation(const NnBenchmarkSettings& settings, const nn::Mlp<T, Memor
     nn::evaluate_with_jacobians(space, mlp, nn::PointsView<T, MemorySpace>(X), nn::CodesView<T, MemorySpace>(codes),
                                 nn::CodesView<T, MemorySpace>(rates), g, F, J, v);
   };
-  evaluate();
-  space.fence();
-  const auto start = SteadyClock::now();
-  for (int i = 0; i < settings.repeats; ++i) evaluate();
-  space.fence();
-  result.evaluation_seconds = seconds_since(start) / settings.repeats;
+  result.evaluation_seconds = seconds_per_call(space, settings.repeats, evaluate);
 }
 
 // Training steps: minibatches of batch_snapshots x points_per_snapshot samples over S random snapshots, the
@@ -288,12 +294,7 @@ void time_training(const NnBenchmarkSettings& settings, const nn::Mlp<T, MemoryS
     nn::adam_step(space, params, Kokkos::View<const T*, MemorySpace>(grad), m, second, 0, int(params.extent(0)),
                   1e-6, ++step);
   };
-  train_step();
-  space.fence();
-  const auto start = SteadyClock::now();
-  for (int i = 0; i < settings.repeats; ++i) train_step();
-  space.fence();
-  result.training_step_seconds = seconds_since(start) / settings.repeats;
+  result.training_step_seconds = seconds_per_call(space, settings.repeats, train_step);
   result.training_samples = num_samples;
   result.flops_per_training_sample = 2 * 3 * channels.count * double(layout.forward_macs());
 }
