@@ -1,0 +1,201 @@
+// A trained manifold applied to new snapshots (manifold/trainer.hpp): the codes that fit them best, and the errors of
+// the reconstruction. Network evaluations only: the training kernels stay in trainer.cpp.
+#include "manifold/trainer.hpp"
+
+#include <Kokkos_Core.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <stdexcept>
+
+#include "core/math/cholesky.hpp"
+#include "manifold/detail/rate_stencil.hpp"
+#include "manifold/device_data.hpp"
+#include "manifold/nn/mlp.hpp"
+#include "mpmrom/mpmrom_config.hpp"
+
+namespace mpmrom {
+namespace {
+
+using ExecutionSpace = Kokkos::DefaultExecutionSpace;
+using T = real_t;
+using MemorySpace = impl::DeviceMemory;
+using Vector = impl::DeviceVector;
+using Matrix = impl::DeviceMatrix;
+using Cube = impl::DeviceCube;
+using Quad = impl::DeviceQuad;
+using impl::device_mlp;
+using impl::download;
+using impl::upload;
+
+// Each frame's start: the training code that fits it best on a subset of points.
+std::vector<double> closest_training_codes(const Model& model, const Snapshot& run,
+                                           const nn::Mlp<T, MemorySpace>& mlp) {
+  const int r = model.latent_dim;
+  const int P = int(run.num_points), frames = int(run.num_frames);
+  std::vector<int> subset;
+  for (int p = 0; p < P; p += std::max(1, P / 256)) subset.push_back(p);
+  std::vector<double> X_subset;
+  for (const int p : subset) X_subset.insert(X_subset.end(), run.X.begin() + 3 * p, run.X.begin() + 3 * p + 3);
+  const int num_train = int(model.num_codes());
+  const Matrix train_codes = upload<Matrix>("mpmrom::project::train_codes", model.codes, num_train, r);
+  Cube g_subset("mpmrom::project::g_subset", num_train, subset.size(), 3);
+  nn::evaluate(ExecutionSpace(), mlp, nn::PointsView<T, MemorySpace>(upload<Matrix>("X", X_subset, subset.size(), 3)),
+               nn::CodesView<T, MemorySpace>(train_codes), g_subset);
+  const auto g_train = download(g_subset);
+  std::vector<double> codes(std::size_t(frames) * r);
+  for (int f = 0; f < frames; ++f) {
+    double best = INFINITY;
+    for (int c = 0; c < num_train; ++c) {
+      double misfit = 0;
+      for (std::size_t i = 0; i < subset.size(); ++i)
+        for (int d = 0; d < 3; ++d) {
+          const double e = g_train[(c * subset.size() + i) * 3 + d] - run.x[(std::size_t(f) * P + subset[i]) * 3 + d];
+          misfit += e * e;
+        }
+      if (misfit < best) {
+        best = misfit;
+        std::copy(model.codes.begin() + c * r, model.codes.begin() + (c + 1) * r, codes.begin() + f * r);
+      }
+    }
+  }
+  return codes;
+}
+
+// Frame f's Levenberg-Marquardt step, (J^T J + mu diag(J^T J)) delta = -J^T (g - x), added to its code in trial;
+// false, with trial unchanged, where the damped matrix is not positive definite.
+bool add_damped_step(const std::vector<double>& g_host, const std::vector<double>& J_host, const Snapshot& run, int f,
+                     int r, double mu, std::vector<double>& trial) {
+  const int P = int(run.num_points);
+  std::vector<double> JtJ(r * r, 0.0), Jtr(r, 0.0);
+  for (int p = 0; p < P; ++p)
+    for (int k = 0; k < 3; ++k) {
+      const std::size_t row = (std::size_t(f) * P + p) * 3 + k;
+      const double res = g_host[row] - run.x[row];
+      const double* Jrow = &J_host[row * r];
+      for (int a = 0; a < r; ++a) {
+        Jtr[a] += Jrow[a] * res;
+        for (int b = 0; b < r; ++b) JtJ[a * r + b] += Jrow[a] * Jrow[b];
+      }
+    }
+  std::vector<double> A = JtJ, delta(r);
+  double trace = 0;
+  for (int a = 0; a < r; ++a) trace += JtJ[a * r + a];
+  for (int a = 0; a < r; ++a) A[a * r + a] += mu * JtJ[a * r + a] + 1e-14 * trace;
+  for (int a = 0; a < r; ++a) delta[a] = -Jtr[a];
+  if (!dense::SerialCholesky(A.data(), r, r)) return false;
+  dense::SerialCholeskySolve(A.data(), r, r, delta.data());
+  for (int a = 0; a < r; ++a) trial[f * r + a] += delta[a];
+  return true;
+}
+
+}  // namespace
+
+std::vector<double> project_codes(const Model& model, const Snapshot& run) {
+  const int r = model.latent_dim;
+  const int P = int(run.num_points), frames = int(run.num_frames);
+  if (run.num_points != model.num_points())
+    throw std::runtime_error("run has " + std::to_string(run.num_points) + " points, the model was trained on " +
+                             std::to_string(model.num_points()));
+  const nn::MlpLayout layout = model.layout();
+  const Vector weights = upload<Vector>("mpmrom::project::weights", model.weights, layout.num_params);
+  const auto mlp = device_mlp(model, weights);
+  const ExecutionSpace space;
+  const Matrix X = upload<Matrix>("mpmrom::project::X", run.X, P, 3);
+  std::vector<double> codes = closest_training_codes(model, run, mlp);
+
+  // Levenberg-Marquardt, every frame at once.
+  Cube g("mpmrom::project::g", frames, P, 3), velocity;
+  Quad F("mpmrom::project::F", frames, P, 3, 3), J("mpmrom::project::J", frames, P, 3, r);
+  Matrix device_codes("mpmrom::project::codes", frames, r);
+  auto host_codes = Kokkos::create_mirror_view(device_codes);
+  const auto set_codes = [&](const std::vector<double>& values) {
+    for (std::size_t i = 0; i < values.size(); ++i) host_codes.data()[i] = T(values[i]);
+    Kokkos::deep_copy(device_codes, host_codes);
+  };
+  const auto cost_of = [&](const std::vector<double>& positions, int f) {
+    double cost = 0;
+    for (int i = 0; i < P * 3; ++i) {
+      const double e = positions[std::size_t(f) * P * 3 + i] - run.x[std::size_t(f) * P * 3 + i];
+      cost += e * e;
+    }
+    return cost;
+  };
+  std::vector<double> mu(frames, 1e-3), cost(frames);
+  std::vector<bool> converged(frames, false);
+  for (int iteration = 0; iteration < 100; ++iteration) {
+    set_codes(codes);
+    nn::evaluate_with_jacobians(space, mlp, nn::PointsView<T, MemorySpace>(X),
+                                nn::CodesView<T, MemorySpace>(device_codes), nn::CodesView<T, MemorySpace>(), g, F, J,
+                                velocity);
+    const auto g_host = download(g);
+    const auto J_host = download(J);
+    std::vector<double> trial = codes;
+    for (int f = 0; f < frames; ++f) {
+      cost[f] = cost_of(g_host, f);
+      if (converged[f]) continue;
+      if (!add_damped_step(g_host, J_host, run, f, r, mu[f], trial)) mu[f] *= 10;
+    }
+    // Accept each frame's step if it lowers that frame's misfit, else damp more.
+    set_codes(trial);
+    nn::evaluate(space, mlp, nn::PointsView<T, MemorySpace>(X), nn::CodesView<T, MemorySpace>(device_codes), g);
+    const auto g_trial = download(g);
+    bool all_done = true;
+    for (int f = 0; f < frames; ++f) {
+      if (converged[f]) continue;
+      const double new_cost = cost_of(g_trial, f);
+      if (new_cost < cost[f]) {
+        // converged once a step gains less than a part in 1e6 of the misfit (rounding level in float)
+        if (cost[f] - new_cost <= 1e-6 * cost[f]) converged[f] = true;
+        std::copy(trial.begin() + f * r, trial.begin() + (f + 1) * r, codes.begin() + f * r);
+        mu[f] = std::max(mu[f] / 3, 1e-9);
+      } else {
+        mu[f] *= 5;
+        if (mu[f] > 1e8) converged[f] = true;  // no descent left at any damping: a local minimum
+      }
+      all_done = all_done && converged[f];
+    }
+    if (all_done) break;
+  }
+  return codes;
+}
+
+ErrorAccumulator reconstruction_errors(const Model& model, const Snapshot& run, const std::vector<double>& codes,
+                                       const std::vector<int>& points) {
+  const int r = model.latent_dim;
+  const int P = int(run.num_points), frames = int(run.num_frames);
+  if (codes.size() != std::size_t(frames) * r) throw std::invalid_argument("one code per frame is needed");
+  impl::RateStencil stencil;
+  stencil.add_run(run.time, 0);
+  const auto rates = stencil.rates(codes, r);
+  const nn::MlpLayout layout = model.layout();
+  const Vector weights = upload<Vector>("mpmrom::errors::weights", model.weights, layout.num_params);
+  const auto mlp = device_mlp(model, weights);
+  Cube g("mpmrom::errors::g", frames, P, 3), velocity("mpmrom::errors::v", frames, P, 3);
+  Quad F("mpmrom::errors::F", frames, P, 3, 3), J("mpmrom::errors::J", frames, P, 3, r);
+  nn::evaluate_with_jacobians(ExecutionSpace(), mlp,
+                              nn::PointsView<T, MemorySpace>(upload<Matrix>("X", run.X, P, 3)),
+                              nn::CodesView<T, MemorySpace>(upload<Matrix>("codes", codes, frames, r)),
+                              nn::CodesView<T, MemorySpace>(upload<Matrix>("rates", rates, frames, r)), g, F, J,
+                              velocity);
+  const auto g_host = download(g), F_host = download(F), v_host = download(velocity);
+  double centroid[3] = {0, 0, 0};
+  for (int p = 0; p < P; ++p)
+    for (int d = 0; d < 3; ++d) centroid[d] += run.X[3 * p + d] / P;
+  std::vector<int> all;
+  if (points.empty()) {
+    all.resize(P);
+    std::iota(all.begin(), all.end(), 0);
+  }
+  ErrorAccumulator errors;
+  for (int f = 0; f < frames; ++f)
+    for (const int p : points.empty() ? all : points) {
+      const std::size_t i = std::size_t(f) * P + p;
+      errors.add(centroid, &run.X[3 * p], &run.x[3 * i], &g_host[3 * i], &run.v[3 * i], &v_host[3 * i], &run.F[9 * i],
+                 &F_host[9 * i]);
+    }
+  return errors;
+}
+
+}  // namespace mpmrom
