@@ -2,7 +2,6 @@
 
 #include <Kokkos_Core.hpp>
 
-#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -11,6 +10,7 @@
 
 #include "io/atomic_file.hpp"
 #include "core/parallel.hpp"
+#include "core/timing.hpp"
 #include "mpmrom/snapshot.hpp"
 #include "snapshots/snapshot_writer.hpp"
 
@@ -45,9 +45,19 @@ bool finished_before(const std::string& path, const Scene& run_scene) {
 
 }  // namespace
 
+void advance_through_outputs(FomSolver& solver, const Scene& scene, const FrameCallback& on_frame) {
+  for (int k = 0; k <= scene.num_outputs; ++k) {
+    const auto step_start = SteadyClock::now();
+    solver.advance_to(scene.end_time * k / scene.num_outputs);
+    Kokkos::fence();
+    const double step_seconds = seconds_since(step_start);
+    on_frame(solver.frame(), step_seconds);
+  }
+}
+
 void simulate(const Scene& scene, const std::string& out_path, P2GStrategy strategy,
               const SimulationCallback& progress) {
-  const auto start = std::chrono::steady_clock::now();
+  const auto start = SteadyClock::now();
   FomSolver solver(scene, strategy);
   SnapshotHeader header;
   header.scene_name = scene.name;
@@ -58,26 +68,23 @@ void simulate(const Scene& scene, const std::string& out_path, P2GStrategy strat
   solver.reference(X, mass, volume);
   SnapshotWriter writer(out_path, header, solver.num_particles(), X.data(), mass.data(), volume.data());
   const int num_frames = scene.num_outputs + 1;
+  int written = 0;
   double step_seconds = 0;
-  for (int k = 0; k < num_frames; ++k) {
-    const auto step_start = std::chrono::steady_clock::now();
-    try {
-      solver.advance_to(scene.end_time * k / scene.num_outputs);
-    } catch (const SimulationFailure& failure) {
-      // The frames before the failure stay readable (ParaView, and the cause) under a name no reader mistakes for a
-      // finished run.
-      const std::string kept = writer.commit_failed(failure.what());
-      throw SimulationFailure(failure.cause(), failure.step(), failure.time(),
-                              failure.detail() + "; the " + std::to_string(k) + " frames before it are in " + kept);
-    }
-    Kokkos::fence();
-    step_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - step_start).count();
-    const ParticleFrame f = solver.frame();
-    writer.append(f.time, f.x.data(), f.v.data(), f.F.data(), f.C.data());
-    if (progress) {
-      const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-      progress({k + 1, num_frames, solver.time(), solver.steps(), solver.num_particles(), seconds, step_seconds});
-    }
+  try {
+    advance_through_outputs(solver, scene, [&](const ParticleFrame& f, double seconds) {
+      step_seconds += seconds;
+      writer.append(f.time, f.x.data(), f.v.data(), f.F.data(), f.C.data());
+      ++written;
+      if (progress)
+        progress({written, num_frames, solver.time(), solver.steps(), solver.num_particles(), seconds_since(start),
+                  step_seconds});
+    });
+  } catch (const SimulationFailure& failure) {
+    // The frames before the failure stay readable (ParaView, and the cause) under a name no reader mistakes for a
+    // finished run.
+    const std::string kept = writer.commit_failed(failure.what());
+    throw SimulationFailure(failure.cause(), failure.step(), failure.time(),
+                            failure.detail() + "; the " + std::to_string(written) + " frames before it are in " + kept);
   }
   writer.commit();
 }

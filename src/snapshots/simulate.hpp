@@ -21,6 +21,13 @@ struct SimulationProgress {
 };
 using SimulationCallback = std::function<void(const SimulationProgress&)>;
 
+// The one loop that drives the full-order model through the scene's output times t_k = end_time * k / num_outputs,
+// k = 0 .. num_outputs (t_0 = 0: the initial state). After each, on_frame gets the frame and the wall seconds the
+// advance took (fenced: the simulation alone, no output). A SimulationFailure propagates out of the step it happened
+// in, after the frames before it were handed over. simulate writes them to a file, the stability map keeps them.
+using FrameCallback = std::function<void(const ParticleFrame& frame, double step_seconds)>;
+void advance_through_outputs(FomSolver& solver, const Scene& scene, const FrameCallback& on_frame);
+
 // Runs `scene` from t = 0 to its end time, writing every output time to the snapshot file at `out_path`
 // (atomically: nothing appears there unless the run completes).
 void simulate(const Scene& scene, const std::string& out_path, P2GStrategy strategy,

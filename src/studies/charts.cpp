@@ -1,12 +1,13 @@
+// Charts as self-contained gnuplot scripts, and their images where gnuplot is installed.
 #include "studies/charts.hpp"
 
 #include <cmath>
-#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <sstream>
 
 #include "io/atomic_file.hpp"
+#include "studies/detail/format.hpp"
 
 namespace mpmrom {
 namespace {
@@ -18,12 +19,6 @@ std::string quoted(const std::string& text) {
     out += c;
   }
   return out + "\"";
-}
-
-std::string number(double value) {
-  char text[32];
-  std::snprintf(text, sizeof text, "%.9g", value);
-  return text;
 }
 
 std::string script(const Chart& chart, const std::string& terminal, const std::string& output) {
@@ -46,9 +41,9 @@ std::string script(const Chart& chart, const std::string& terminal, const std::s
       if (!std::isfinite(series.x[i]) || !std::isfinite(series.y[i])) continue;
       if (i < series.color.size() && !(std::isfinite(series.color[i]) && (!chart.log_color || series.color[i] > 0)))
         continue;
-      gp << number(series.x[i]) << " " << number(series.y[i]) << " "
+      gp << general(series.x[i], 9) << " " << general(series.y[i], 9) << " "
          << quoted(i < series.labels.size() ? series.labels[i] : "");
-      if (!series.color.empty()) gp << " " << number(series.color[i]);
+      if (!series.color.empty()) gp << " " << general(series.color[i], 9);
       gp << "\n";
     }
     gp << "EOD\n";
