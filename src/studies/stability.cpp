@@ -210,12 +210,11 @@ class StabilityStudy {
         runner_.rollouts(model_, scene_path, {{c.values, ""}}, rom, reduction(rom.method, rom.samples));
     c.seconds = seconds_since(start);
     const RolloutOutcome& o = result.outcomes[0];
-    c.details = {{"steps", result.steps},
-                 {"max_condition", o.max_condition},
-                 {"regularized_steps", o.regularized_steps},
-                 {"inversion_failures", o.inversion_failures},
-                 {"inversion_fallbacks", o.inversion_fallbacks},
-                 {"warning", o.warning}};
+    c.details = {{"steps", result.steps}};
+    // the safeguards' counters and the warning, named as in the ROM file
+    impl::for_each_outcome_field([&](const auto& field) {
+      if (!field.detector) c.details[field.name] = o.*field.member;
+    });
     const bool stopped = (o.flags & rom::fatal_flags) != 0;
     if (stopped) {
       c.cause = impl::describe_flags(o.flags & rom::fatal_flags);
