@@ -10,7 +10,7 @@ packages=(
   build-essential cmake git pkg-config tar gzip
   libeigen3-dev libhdf5-dev hdf5-tools libcli11-dev libtomlplusplus-dev nlohmann-json3-dev
   libgtest-dev libbenchmark-dev gnuplot-nox python3
-  clang libclang-rt-dev libtrilinos-kokkos-dev
+  clang libclang-rt-dev clang-format clang-tidy libtrilinos-kokkos-dev
   libopenmpi-dev openmpi-bin
 )
 if [ "${1:-}" = "--render" ]; then

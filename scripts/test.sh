@@ -4,7 +4,8 @@
 # adds test_mpi and test_mpi_cli, on two processes: docs/mpi.md); then the set-up scripts on a simulated fresh
 # machine (tests/fresh_machine.sh); the example consumer (scripts/example.sh: examples/rollout_consumer built against
 # the installed package, running three rollouts); and the sanitizer job (scripts/sanitize.sh: the suite under
-# ASan + UBSan, and the fuzzers' repeatable runs). MPMROM_SETUP_ONLY=1 stops after the set-up and builds.
+# ASan + UBSan, and the fuzzers' repeatable runs); and the sources' format (scripts/format.sh --check against
+# .clang-format). MPMROM_SETUP_ONLY=1 stops after the set-up and builds.
 # Prints ctest's results (and nothing else) on stdout; exits non-zero on any failure, naming the failed parts last.
 set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -15,6 +16,8 @@ done
 [ -n "${MPMROM_SETUP_ONLY:-}" ] && { echo "test: set up: ${variants[*]} built in $here/build" >&2; exit 0; }
 
 failed=()
+echo "== source format (.clang-format) ==" >&2
+"$here/scripts/format.sh" --check || failed+=("source format")
 for variant in "${variants[@]}"; do
   echo "== tests, $variant ==" >&2
   (cd "$here/build/$variant" && ctest --output-on-failure --timeout 1200) || failed+=("tests ($variant)")
