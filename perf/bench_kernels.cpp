@@ -25,8 +25,8 @@ void BM_QuadraticStencil(benchmark::State& state) {
         "mpmrom::bench::quadratic_stencil", Kokkos::RangePolicy<ExecutionSpace>(0, n),
         KOKKOS_LAMBDA(const int p, real_t& acc) {
           const mpmrom::Vec3<real_t> origin{{0, 0, 0}};
-          const auto s = mpmrom::quadratic_stencil(mpmrom::Vec3<real_t>{{x(p, 0), x(p, 1), x(p, 2)}}, origin,
-                                                   real_t(20));
+          const auto s =
+              mpmrom::quadratic_stencil(mpmrom::Vec3<real_t>{{x(p, 0), x(p, 1), x(p, 2)}}, origin, real_t(20));
           for (int a = 0; a < 3; ++a)
             for (int b = 0; b < 3; ++b)
               for (int c = 0; c < 3; ++c) acc += s.weight(a, b, c) + s.gradient(a, b, c)[0];

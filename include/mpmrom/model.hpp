@@ -1,6 +1,6 @@
-// A trained deformation map g(X; xhat) (src/manifold/nn/mlp.hpp) with everything needed to use and to audit it: weights,
-// standardisation, the training snapshots' latent codes, the reference configuration, the settings it was trained
-// with and its errors. Stored as HDF5 (docs/model_format.md); a training checkpoint is a model file with the
+// A trained deformation map g(X; xhat) (src/manifold/nn/mlp.hpp) with everything needed to use and to audit it:
+// weights, standardisation, the training snapshots' latent codes, the reference configuration, the settings it was
+// trained with and its errors. Stored as HDF5 (docs/model_format.md); a training checkpoint is a model file with the
 // optimiser's state added.
 #pragma once
 

@@ -9,8 +9,8 @@
 
 namespace mpmrom::nn {
 
-inline constexpr int max_layers = 8;    // affine layers, hidden and output together
-inline constexpr int max_width = 128;   // widest layer (and 3 + r) that the one-thread kernels hold in registers
+inline constexpr int max_layers = 8;   // affine layers, hidden and output together
+inline constexpr int max_width = 128;  // widest layer (and 3 + r) that the one-thread kernels hold in registers
 inline constexpr int output_dim = 3;
 
 // The shape of the network and where each layer's parameters sit in the flat parameter array.
@@ -21,7 +21,7 @@ struct MlpLayout {
   int weight_offset[max_layers] = {};  // W_l(i, j) = params[weight_offset[l] + i * dims[l] + j]
   int bias_offset[max_layers] = {};    // b_l(i) = params[bias_offset[l] + i]
   int num_params = 0;
-  int widest = 0;                      // max over dims
+  int widest = 0;  // max over dims
 
   // depth affine layers: depth - 1 hidden layers of `width` ELU units and a linear output layer.
   static MlpLayout make(int latent_dim, int width, int depth) {

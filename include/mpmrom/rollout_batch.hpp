@@ -38,9 +38,9 @@ class RolloutBatch {
   int latent_dim() const;  // r
   int frame() const;       // output frame reached: 0 (the initial state) to frames() - 1
   int frames() const;
-  double time() const;     // of frame()
+  double time() const;                       // of frame()
   const std::vector<double>& times() const;  // every output time, frames() of them
-  long steps() const;      // time steps taken so far (each advances every rollout)
+  long steps() const;                        // time steps taken so far (each advances every rollout)
 
   // Advances every running rollout to the next output time (a stopped rollout keeps its last state); false, doing
   // nothing, at the horizon.

@@ -41,11 +41,11 @@ struct RomSettings {
   int newton_iterations = 20;
   // Re-projections with dg/dxhat at the trial next state (0: the paper's dg/dxhat at xhat(t_n) only).
   int projection_iterations = 2;
-  double max_condition = 0;        // regularise the normal equations above this estimate (0: 0.01 / epsilon)
-  double regularization = 0;       // mu = regularization * trace / r (0: 100 epsilon)
+  double max_condition = 0;   // regularise the normal equations above this estimate (0: 0.01 / epsilon)
+  double regularization = 0;  // mu = regularization * trace / r (0: 100 epsilon)
   // Safeguards and detectors (docs/stability.md).
-  bool regularize = true;            // false: an ill-conditioned projection stops the rollout instead
-  bool inversion_fallback = true;    // Algorithm 2: retry a failed inversion cold, then reuse last step's solution
+  bool regularize = true;               // false: an ill-conditioned projection stops the rollout instead
+  bool inversion_fallback = true;       // Algorithm 2: retry a failed inversion cold, then reuse last step's solution
   double max_failed_inversions = 0.05;  // Algorithm 2: stop when more than this fraction fails in one step
   double energy_growth = 10;  // stop when |xhatdot| exceeds this times the fastest training motion (0: no check)
   // Horizon (s), rounded to a whole number of the scene's output intervals (0: the scene's end time).
@@ -152,9 +152,9 @@ RomResult run_rollouts(const Model& model, const std::string& scene_path, const 
                        const HyperReduction& reduction, const std::function<void(const RomProgress&)>& progress = {},
                        const RolloutCheckpoint& checkpoint = {});
 
-// run_rollouts spread over the ranks of comm (src/core/parallel.hpp): each rank advances a contiguous share of the cases
-// (parallel::share_of) and the shares take one time step, so the result equals run_rollouts' on one process bit for
-// bit. Rank 0 returns the whole batch, the other ranks their own share. progress is called on rank 0. Each rank
+// run_rollouts spread over the ranks of comm (src/core/parallel.hpp): each rank advances a contiguous share of the
+// cases (parallel::share_of) and the shares take one time step, so the result equals run_rollouts' on one process bit
+// for bit. Rank 0 returns the whole batch, the other ranks their own share. progress is called on rank 0. Each rank
 // checkpoints its share into checkpoint.path + ".rank<k>" (docs/mpi.md).
 RomResult run_rollouts(const parallel::Communicator& comm, const Model& model, const std::string& scene_path,
                        const std::vector<std::string>& names, const std::vector<RolloutCase>& cases,

@@ -32,12 +32,12 @@ struct BodySpec {
   double radius = 0;     // cylinder (axis z) and sphere
   double height = 0;     // cylinder
   SamplingKind sampling = SamplingKind::Lattice;
-  long count = 0;        // exact number of points (lattice spacing searched for it), or 0 to use spacing
-  double spacing = 0;    // lattice spacing or Poisson-disk radius
-  unsigned seed = 1;     // Poisson-disk sampling
+  long count = 0;             // exact number of points (lattice spacing searched for it), or 0 to use spacing
+  double spacing = 0;         // lattice spacing or Poisson-disk radius
+  unsigned seed = 1;          // Poisson-disk sampling
   std::vector<Vec3d> points;  // explicit sampling: offsets from the center, each inside the shape
-  Vec3d velocity{};          // initial velocity
-  Vec3d angular_velocity{};  // initial spin about the body's center (rad/s)
+  Vec3d velocity{};           // initial velocity
+  Vec3d angular_velocity{};   // initial spin about the body's center (rad/s)
 };
 
 enum class ElasticModelKind { NeoHookean, FixedCorotated };

@@ -67,8 +67,8 @@ std::vector<std::size_t> nearest_points(const std::vector<double>& points, const
             const std::size_t b = flat(i, j, k);
             for (std::size_t s = start[b]; s < start[b + 1]; ++s) {
               const double* y = &points[3 * order[s]];
-              const double d2 = (x[0] - y[0]) * (x[0] - y[0]) + (x[1] - y[1]) * (x[1] - y[1]) +
-                                (x[2] - y[2]) * (x[2] - y[2]);
+              const double d2 =
+                  (x[0] - y[0]) * (x[0] - y[0]) + (x[1] - y[1]) * (x[1] - y[1]) + (x[2] - y[2]) * (x[2] - y[2]);
               if (d2 < best) {
                 best = d2;
                 nearest[q] = order[s];
@@ -97,8 +97,10 @@ ErrorAccumulator resolution_errors(const Snapshot& reference, const Snapshot& ru
 
 std::vector<ErrorAccumulator> resolution_errors_by_frame(const Snapshot& reference, const Snapshot& run) {
   if (run.num_frames > reference.num_frames)
-    throw std::runtime_error("the run has " + std::to_string(run.num_frames) + " output times, more than its "
-                             "reference's " + std::to_string(reference.num_frames));
+    throw std::runtime_error("the run has " + std::to_string(run.num_frames) +
+                             " output times, more than its "
+                             "reference's " +
+                             std::to_string(reference.num_frames));
   for (std::size_t f = 0; f < run.num_frames; ++f)
     if (std::fabs(run.time[f] - reference.time[f]) > 1e-9 * std::max(1.0, std::fabs(reference.time[f])))
       throw std::runtime_error("output time " + std::to_string(f) + " differs from the reference's");
@@ -146,7 +148,7 @@ std::vector<ErrorAccumulator> rollout_errors_by_frame(const Model& model, const 
     for (std::size_t p = 0; p < P; ++p) {
       const std::size_t i = f * P + p;
       errors[f].add(centroid, &reference.X[3 * p], &reference.x[3 * i], &fields.x[3 * i], &reference.v[3 * i],
-                 &fields.v[3 * i], &reference.F[9 * i], &fields.F[9 * i]);
+                    &fields.v[3 * i], &reference.F[9 * i], &fields.F[9 * i]);
     }
   return errors;
 }
@@ -188,8 +190,8 @@ nlohmann::json evaluate_rom(const RomFile& rom, const Model& model, const Traini
     const Snapshot& ref = *match->run;
     // A shorter rollout (--end-time) is compared on its own output times, which must be the reference's first ones.
     if (ref.num_frames < frames)
-      throw std::runtime_error(*match->file + ": " + std::to_string(ref.num_frames) + " output times, the rollouts have " +
-                               std::to_string(frames));
+      throw std::runtime_error(*match->file + ": " + std::to_string(ref.num_frames) +
+                               " output times, the rollouts have " + std::to_string(frames));
     for (std::size_t f = 0; f < frames; ++f)
       if (std::fabs(ref.time[f] - res.times[f]) > 1e-9 * std::max(1.0, std::fabs(res.times.back())))
         throw std::runtime_error(*match->file + ": output time " + std::to_string(f) + " is " +
@@ -199,8 +201,7 @@ nlohmann::json evaluate_rom(const RomFile& rom, const Model& model, const Traini
       throw std::runtime_error(*match->file + ": " + std::to_string(ref.num_points) +
                                " material points, the model has " + std::to_string(model.num_points()));
     const std::vector<double> xhat(res.xhat.begin() + b * frames * r, res.xhat.begin() + (b + 1) * frames * r);
-    const std::vector<double> xhatdot(res.xhatdot.begin() + b * frames * r,
-                                      res.xhatdot.begin() + (b + 1) * frames * r);
+    const std::vector<double> xhatdot(res.xhatdot.begin() + b * frames * r, res.xhatdot.begin() + (b + 1) * frames * r);
     const ErrorAccumulator errors = rollout_errors(model, ref, xhat, xhatdot);
     const std::string split = res.cases[b].split.empty() ? match->split : res.cases[b].split;
     entry["reference"] = *match->file;
@@ -213,8 +214,7 @@ nlohmann::json evaluate_rom(const RomFile& rom, const Model& model, const Traini
     all.merge(errors);
     (split == "test" ? test : train).merge(errors);
   }
-  if (matched == 0)
-    throw std::runtime_error("no rollout matches a reference run with the same parameter values");
+  if (matched == 0) throw std::runtime_error("no rollout matches a reference run with the same parameter values");
   nlohmann::json out = to_json(all.metrics());
   out["rollouts"] = res.cases.size();
   out["matched"] = matched;

@@ -27,8 +27,8 @@ Integer checked_integer(double value, const Name& name, double lo = -INFINITY, d
       return std::string(buffer);
     };
     // The bounds are whole numbers below 2^53: 17 digits print them exactly; 15 print the value as it was written.
-    throw std::runtime_error(std::string(name()) + " must be a whole number in [" + text(lo, 17) + ", " +
-                             text(hi, 17) + "], not " + text(value, 15));
+    throw std::runtime_error(std::string(name()) + " must be a whole number in [" + text(lo, 17) + ", " + text(hi, 17) +
+                             "], not " + text(value, 15));
   }
   return static_cast<Integer>(value);
 }

@@ -41,11 +41,17 @@ using kokkos_math::tanh;
 
 // Kokkos 3.4 has no Kokkos::min/max/abs usable in kernels for floating point; these work everywhere.
 template <class T>
-KOKKOS_INLINE_FUNCTION constexpr T min(T a, T b) { return b < a ? b : a; }
+KOKKOS_INLINE_FUNCTION constexpr T min(T a, T b) {
+  return b < a ? b : a;
+}
 template <class T>
-KOKKOS_INLINE_FUNCTION constexpr T max(T a, T b) { return a < b ? b : a; }
+KOKKOS_INLINE_FUNCTION constexpr T max(T a, T b) {
+  return a < b ? b : a;
+}
 template <class T>
-KOKKOS_INLINE_FUNCTION constexpr T clamp(T x, T lo, T hi) { return x < lo ? lo : (hi < x ? hi : x); }
+KOKKOS_INLINE_FUNCTION constexpr T clamp(T x, T lo, T hi) {
+  return x < lo ? lo : (hi < x ? hi : x);
+}
 
 // Kokkos::kokkos_swap arrived in 4.3; std::swap is not a device function. Remove when the minimum is 4.3.
 template <class T>
@@ -58,7 +64,9 @@ KOKKOS_INLINE_FUNCTION void swap(T& a, T& b) {
 // Machine epsilon: 3.4 has Kokkos::Experimental::epsilon<T>::value, 4.x still has it (next to epsilon_v).
 // Remove the wrapper when Kokkos moves the traits out of Experimental.
 template <class T>
-KOKKOS_INLINE_FUNCTION constexpr T epsilon() { return Kokkos::Experimental::epsilon<T>::value; }
+KOKKOS_INLINE_FUNCTION constexpr T epsilon() {
+  return Kokkos::Experimental::epsilon<T>::value;
+}
 
 }  // namespace math
 
@@ -66,7 +74,9 @@ namespace compat {
 
 // Number of threads (or concurrent lanes) of an execution space instance; concurrency() became non-static in 4.0.
 template <class ExecutionSpace>
-int concurrency(const ExecutionSpace& space = ExecutionSpace()) { return space.concurrency(); }
+int concurrency(const ExecutionSpace& space = ExecutionSpace()) {
+  return space.concurrency();
+}
 
 // Initialise Kokkos with a thread count and a device id (-1: Kokkos' defaults). InitArguments (3.x) became
 // InitializationSettings (3.7) and InitArguments was removed in 4.0. Remove the 3.x branch when the minimum is 3.7.

@@ -68,16 +68,13 @@ void Communicator::barrier() const {
   if (world_) check(MPI_Barrier(MPMROM_COMM), "MPI_Barrier");
 }
 void Communicator::sum(double* values, std::size_t count) const {
-  if (world_)
-    check(MPI_Allreduce(MPI_IN_PLACE, values, to_int_count(count), MPI_DOUBLE, MPI_SUM, MPMROM_COMM), "sum");
+  if (world_) check(MPI_Allreduce(MPI_IN_PLACE, values, to_int_count(count), MPI_DOUBLE, MPI_SUM, MPMROM_COMM), "sum");
 }
 void Communicator::sum(float* values, std::size_t count) const {
-  if (world_)
-    check(MPI_Allreduce(MPI_IN_PLACE, values, to_int_count(count), MPI_FLOAT, MPI_SUM, MPMROM_COMM), "sum");
+  if (world_) check(MPI_Allreduce(MPI_IN_PLACE, values, to_int_count(count), MPI_FLOAT, MPI_SUM, MPMROM_COMM), "sum");
 }
 void Communicator::max(double* values, std::size_t count) const {
-  if (world_)
-    check(MPI_Allreduce(MPI_IN_PLACE, values, to_int_count(count), MPI_DOUBLE, MPI_MAX, MPMROM_COMM), "max");
+  if (world_) check(MPI_Allreduce(MPI_IN_PLACE, values, to_int_count(count), MPI_DOUBLE, MPI_MAX, MPMROM_COMM), "max");
 }
 double Communicator::max(double value) const {
   max(&value, 1);

@@ -29,12 +29,9 @@ SimulationFailure::SimulationFailure(FomFailureCause cause, long step, double ti
 
 Contact to_contact(ContactKind kind) {
   switch (kind) {
-    case ContactKind::Sticky:
-      return Contact::Sticky;
-    case ContactKind::Slip:
-      return Contact::Slip;
-    case ContactKind::Separate:
-      return Contact::Separate;
+    case ContactKind::Sticky: return Contact::Sticky;
+    case ContactKind::Slip: return Contact::Slip;
+    case ContactKind::Separate: return Contact::Separate;
   }
   return Contact::Separate;
 }
@@ -58,15 +55,14 @@ GridGeometry<real_t> grid_for_scene(const Scene& scene) {
 }
 
 ElasticMaterial<real_t> material_for_scene(const Scene& scene) {
-  return elastic_material<real_t>(scene.material.model == ElasticModelKind::NeoHookean ? ElasticModel::NeoHookean
-                                                                                       : ElasticModel::FixedCorotated,
-                                  static_cast<real_t>(scene.material.youngs_modulus),
-                                  static_cast<real_t>(scene.material.poisson_ratio));
+  return elastic_material<real_t>(
+      scene.material.model == ElasticModelKind::NeoHookean ? ElasticModel::NeoHookean : ElasticModel::FixedCorotated,
+      static_cast<real_t>(scene.material.youngs_modulus), static_cast<real_t>(scene.material.poisson_ratio));
 }
 
 P2GStrategy default_p2g_strategy() {
   return Kokkos::SpaceAccessibility<Kokkos::HostSpace, FomSolver::MemorySpace>::accessible ? P2GStrategy::ScatterView
-                                                                                          : P2GStrategy::Atomic;
+                                                                                           : P2GStrategy::Atomic;
 }
 
 namespace {
@@ -207,8 +203,6 @@ FomSolver::FomSolver(const Scene& scene, P2GStrategy strategy, const P2GTiling& 
 
 ParticleEnergy FomSolver::energy() const { return particle_energy(ExecutionSpace(), particles_, material_); }
 
-
-
 double FomSolver::stable_time_step() const { return scene_.cfl * scene_.dx / (wave_speed_ + max_speed_); }
 
 void FomSolver::step(double dt) {
@@ -245,7 +239,7 @@ void FomSolver::step(double dt) {
     elastic_energy_ = Kokkos::View<double*, MemorySpace>("mpmrom::fom::elastic_energy", particles_.size());
   using EnergyView = Kokkos::View<double*, MemorySpace>;
   const EnergyView energy_out = checking ? elastic_energy_ : EnergyView();
-  const P2GParticle<MemorySpace> kernel{particles_, grid_,   material_, external, static_cast<real_t>(dt),
+  const P2GParticle<MemorySpace> kernel{particles_, grid_,    material_, external, static_cast<real_t>(dt),
                                         apic,       outside_, energy_out};
 
   Kokkos::deep_copy(space, nodes_, real_t(0));
@@ -289,8 +283,7 @@ void FomSolver::step(double dt) {
   // Every 16 steps, and after any step where the fastest point could carry more kinetic energy than the limit (a
   // loose bound: early in a run from rest it holds for many steps): checked by the next step's P2G.
   const double kinetic_bound = 0.5 * total_mass_ * double(max_speed_) * double(max_speed_);
-  if (scene_.energy_growth > 0 &&
-      ((steps_ + 1) % 16 == 0 || kinetic_bound > scene_.energy_growth * energy_budget()))
+  if (scene_.energy_growth > 0 && ((steps_ + 1) % 16 == 0 || kinetic_bound > scene_.energy_growth * energy_budget()))
     energy_check_due_ = true;
   time_ += dt;
   ++steps_;
@@ -329,8 +322,8 @@ void FomSolver::enforce_energy_budget(double energy, double budget, long step, d
     throw SimulationFailure(FomFailureCause::EnergyBlowUp, step, time,
                             "the energy " + std::to_string(energy) + " J exceeds " +
                                 std::to_string(scene_.energy_growth) +
-                                " times the initial energy plus the work put in (" + std::to_string(budget) +
-                                " J)" + (dt > 0 ? " after a step of " + std::to_string(dt) + " s" : std::string()) +
+                                " times the initial energy plus the work put in (" + std::to_string(budget) + " J)" +
+                                (dt > 0 ? " after a step of " + std::to_string(dt) + " s" : std::string()) +
                                 "; lower [time] cfl or set max_cfl");
 }
 

@@ -33,8 +33,8 @@ class SimulationFailure : public std::runtime_error {
  public:
   SimulationFailure(FomFailureCause cause, long step, double time, const std::string& detail);
   FomFailureCause cause() const { return cause_; }
-  long step() const { return step_; }    // the step (1-based) that produced the bad state
-  double time() const { return time_; }  // at the start of that step, s
+  long step() const { return step_; }                    // the step (1-based) that produced the bad state
+  double time() const { return time_; }                  // at the start of that step, s
   const std::string& detail() const { return detail_; }  // the message without its "step N (t = ...)" prefix
 
  private:

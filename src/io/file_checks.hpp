@@ -72,8 +72,7 @@ void require_positive(const std::string& path, const std::string& what, const T*
 // a damaged file must not reach an undefined conversion. The error names the file, the dataset and the entry.
 template <class Integer>
 std::vector<Integer> checked_integers(const std::string& path, const std::string& what,
-                                      const std::vector<double>& values, double lo = -INFINITY,
-                                      double hi = INFINITY) {
+                                      const std::vector<double>& values, double lo = -INFINITY, double hi = INFINITY) {
   std::vector<Integer> integers(values.size());
   for (std::size_t i = 0; i < values.size(); ++i)
     integers[i] = checked_integer<Integer>(
@@ -87,8 +86,8 @@ void write_file_identity(hdf5::File& file, const std::string& format, int format
 // What a reader expects of a kind of file before reading it (write_file_identity), and its errors when the file is not
 // that: absent, of another format, of a format version it does not read, or not completely written.
 struct FileKind {
-  std::string format;  // the "format" attribute
-  int newest_version;  // versions 1 to newest_version are read
+  std::string format;        // the "format" attribute
+  int newest_version;        // versions 1 to newest_version are read
   std::string version_name;  // "<version_name> format version 4 is not supported ..."
   std::string missing, other_format, incomplete;
 };

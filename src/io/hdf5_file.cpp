@@ -124,7 +124,8 @@ void require_header_links(const std::string& file_name, hid_t group, const std::
   if (version < 2 || H5Gget_info(group, &links) < 0 || links.storage_type == H5G_STORAGE_TYPE_SYMBOL_TABLE)
     refuse(file_name, "group " + path,
            "has the HDF5 layout of older mpmrom versions (a symbol table): the file was written by an older mpmrom; "
-           "if it comes from a source you trust, convert it with 'mpmrom upgrade " + file_name + "'");
+           "if it comes from a source you trust, convert it with 'mpmrom upgrade " +
+               file_name + "'");
 }
 
 // The attribute's strings. Fixed-length ones are read into a buffer bounded by the bytes the attribute stores.
@@ -142,7 +143,8 @@ std::vector<std::string> read_string_attribute(const Object& object, const std::
     if (!legacy_strings_trusted)
       refuse(object.file_name(), what,
              "is a variable-length string: the file was written by an older mpmrom; if it comes from a source you "
-             "trust, convert it with 'mpmrom upgrade " + object.file_name() + "'");
+             "trust, convert it with 'mpmrom upgrade " +
+                 object.file_name() + "'");
     const Handle type(H5Tcopy(open.type.get()));
     std::vector<char*> values(count, nullptr);
     const herr_t status = values.empty() ? 0 : H5Aread(open.attribute.get(), type.get(), values.data());

@@ -60,8 +60,7 @@ inline nn::Standardization<real_t> cast(const nn::Standardization<double>& s) {
   return out;
 }
 
-inline nn::Mlp<real_t, DeviceMemory> device_mlp(const Model& model,
-                                                const Kokkos::View<real_t*, DeviceMemory>& params) {
+inline nn::Mlp<real_t, DeviceMemory> device_mlp(const Model& model, const Kokkos::View<real_t*, DeviceMemory>& params) {
   nn::Mlp<real_t, DeviceMemory> mlp;
   mlp.layout = model.layout();
   mlp.standardization = cast(model.standardization);

@@ -128,9 +128,9 @@ void save_model(const std::string& path, const Model& m, const OptimizerState* o
 
 Model load_model(const std::string& path, OptimizerState* optimizer) {
   // Version 1 differs in its string attributes only (variable-length), which the HDF5 layer refuses unless trusted.
-  const hdf5::File file = impl::open_checked(path, {model_format, model_format_version, "model", "no such model file",
-                                                    "not an mpmrom model file",
-                                                    "incomplete model file (training did not finish writing it)"});
+  const hdf5::File file = impl::open_checked(
+      path, {model_format, model_format_version, "model", "no such model file", "not an mpmrom model file",
+             "incomplete model file (training did not finish writing it)"});
 
   Model m;
   m.precision = file.string_attribute("precision");

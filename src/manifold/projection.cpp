@@ -174,8 +174,7 @@ ErrorAccumulator reconstruction_errors(const Model& model, const Snapshot& run, 
   const auto mlp = device_mlp(model, weights);
   Cube g("mpmrom::errors::g", frames, P, 3), velocity("mpmrom::errors::v", frames, P, 3);
   Quad F("mpmrom::errors::F", frames, P, 3, 3), J("mpmrom::errors::J", frames, P, 3, r);
-  nn::evaluate_with_jacobians(ExecutionSpace(), mlp,
-                              nn::PointsView<T, MemorySpace>(upload<Matrix>("X", run.X, P, 3)),
+  nn::evaluate_with_jacobians(ExecutionSpace(), mlp, nn::PointsView<T, MemorySpace>(upload<Matrix>("X", run.X, P, 3)),
                               nn::CodesView<T, MemorySpace>(upload<Matrix>("codes", codes, frames, r)),
                               nn::CodesView<T, MemorySpace>(upload<Matrix>("rates", rates, frames, r)), g, F, J,
                               velocity);

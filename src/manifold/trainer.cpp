@@ -291,8 +291,8 @@ void time_training(const NnBenchmarkSettings& settings, const nn::Mlp<T, MemoryS
   long step = 0;
   auto train_step = [&]() {
     nn::minibatch_loss(space, mlp, table, channels, weights, batch, buffers, grad);
-    nn::adam_step(space, params, Kokkos::View<const T*, MemorySpace>(grad), m, second, 0, int(params.extent(0)),
-                  1e-6, ++step);
+    nn::adam_step(space, params, Kokkos::View<const T*, MemorySpace>(grad), m, second, 0, int(params.extent(0)), 1e-6,
+                  ++step);
   };
   result.training_step_seconds = seconds_per_call(space, settings.repeats, train_step);
   result.training_samples = num_samples;
@@ -337,8 +337,7 @@ Model train_model(const TrainingData& data, const TrainingSettings& settings, co
 
     // every rank asks (the ranks hold identical parameters; rank 0 writes)
     const bool last = epoch + 1 == settings.epochs;
-    if (!checkpoint_path.empty() && !last &&
-        comm.any(seconds_since(last_checkpoint) >= settings.checkpoint_seconds)) {
+    if (!checkpoint_path.empty() && !last && comm.any(seconds_since(last_checkpoint) >= settings.checkpoint_seconds)) {
       if (comm.is_root()) save_checkpoint(training, model, optimizer, step, epoch + 1, checkpoint_path, callbacks);
       last_checkpoint = SteadyClock::now();
     }

@@ -19,20 +19,20 @@
 namespace mpmrom {
 
 struct TrainingSettings {
-  int latent_dim = 5;                // r
-  int width = 48;                    // hidden units per layer
-  int depth = 5;                     // affine layers (the paper's 5 layers)
-  double lambda_gradient = 1.0;      // lambda1: weight of the F = dg/dX misfit, relative
-  double lambda_velocity = 1.0;      // lambda2: weight of the dg/dxhat * xhatdot misfit, relative
-  int epochs = 600;                  // each visits every training snapshot once
-  int batch_snapshots = 8;           // snapshots per minibatch
-  int points_per_snapshot = 128;     // material points drawn per snapshot visit
-  double learning_rate = 3e-3;       // Adam, first epoch
-  double final_learning_rate = 3e-5; // Adam, last epoch (exponential decay in between)
-  double validation_fraction = 0.1;  // material points held out of training, to watch over-fitting
-  int validate_every = 0;            // epochs between validation losses (0: about 20 per run)
+  int latent_dim = 5;                 // r
+  int width = 48;                     // hidden units per layer
+  int depth = 5;                      // affine layers (the paper's 5 layers)
+  double lambda_gradient = 1.0;       // lambda1: weight of the F = dg/dX misfit, relative
+  double lambda_velocity = 1.0;       // lambda2: weight of the dg/dxhat * xhatdot misfit, relative
+  int epochs = 600;                   // each visits every training snapshot once
+  int batch_snapshots = 8;            // snapshots per minibatch
+  int points_per_snapshot = 128;      // material points drawn per snapshot visit
+  double learning_rate = 3e-3;        // Adam, first epoch
+  double final_learning_rate = 3e-5;  // Adam, last epoch (exponential decay in between)
+  double validation_fraction = 0.1;   // material points held out of training, to watch over-fitting
+  int validate_every = 0;             // epochs between validation losses (0: about 20 per run)
   std::uint64_t seed = 1;
-  double checkpoint_seconds = 60;    // wall-clock time between checkpoints
+  double checkpoint_seconds = 60;  // wall-clock time between checkpoints
 
   nlohmann::json to_json() const;
   static TrainingSettings from_json(const nlohmann::json& json);

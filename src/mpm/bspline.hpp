@@ -20,8 +20,7 @@ struct QuadraticStencil {
     return {{dw[0][a] * w[1][b] * w[2][c], w[0][a] * dw[1][b] * w[2][c], w[0][a] * w[1][b] * dw[2][c]}};
   }
   // Offset from the point to node base + (a, b, c), in length units; APIC needs it.
-  KOKKOS_INLINE_FUNCTION Vec3<T> node_offset(int a, int b, int c, const Vec3<T>& x, const Vec3<T>& origin,
-                                             T dx) const {
+  KOKKOS_INLINE_FUNCTION Vec3<T> node_offset(int a, int b, int c, const Vec3<T>& x, const Vec3<T>& origin, T dx) const {
     return {{origin[0] + T(base[0] + a) * dx - x[0], origin[1] + T(base[1] + b) * dx - x[1],
              origin[2] + T(base[2] + c) * dx - x[2]}};
   }

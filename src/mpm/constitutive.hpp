@@ -137,10 +137,8 @@ KOKKOS_INLINE_FUNCTION Mat3<T> fixed_corotated_kirchhoff(const ElasticMaterial<T
 template <class T>
 KOKKOS_INLINE_FUNCTION T energy_density(const ElasticMaterial<T>& m, const Mat3<T>& F) {
   switch (m.model) {
-    case ElasticModel::NeoHookean:
-      return detail::neo_hookean_energy(m, F);
-    case ElasticModel::FixedCorotated:
-      return detail::fixed_corotated_energy(m, F);
+    case ElasticModel::NeoHookean: return detail::neo_hookean_energy(m, F);
+    case ElasticModel::FixedCorotated: return detail::fixed_corotated_energy(m, F);
   }
   detail::invalid_elastic_model();
   return T(0);  // not reached where Kokkos::abort is noreturn
@@ -150,10 +148,8 @@ KOKKOS_INLINE_FUNCTION T energy_density(const ElasticMaterial<T>& m, const Mat3<
 template <class T>
 KOKKOS_INLINE_FUNCTION Mat3<T> first_piola(const ElasticMaterial<T>& m, const Mat3<T>& F) {
   switch (m.model) {
-    case ElasticModel::NeoHookean:
-      return detail::neo_hookean_first_piola(m, F);
-    case ElasticModel::FixedCorotated:
-      return detail::fixed_corotated_first_piola(m, F);
+    case ElasticModel::NeoHookean: return detail::neo_hookean_first_piola(m, F);
+    case ElasticModel::FixedCorotated: return detail::fixed_corotated_first_piola(m, F);
   }
   detail::invalid_elastic_model();
   return Mat3<T>::zero();  // not reached where Kokkos::abort is noreturn
@@ -168,8 +164,7 @@ KOKKOS_INLINE_FUNCTION Mat3<T> kirchhoff_stress(const ElasticMaterial<T>& m, con
     case ElasticModel::NeoHookean:
       if (psi != nullptr) *psi = detail::neo_hookean_energy(m, F);
       return detail::neo_hookean_kirchhoff(m, F);
-    case ElasticModel::FixedCorotated:
-      return detail::fixed_corotated_kirchhoff(m, F, psi);
+    case ElasticModel::FixedCorotated: return detail::fixed_corotated_kirchhoff(m, F, psi);
   }
   detail::invalid_elastic_model();
   return Mat3<T>::zero();  // not reached where Kokkos::abort is noreturn

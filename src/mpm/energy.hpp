@@ -67,8 +67,8 @@ void external_force_power(const ExecutionSpace& space, const ParticleViews<Memor
         const Vec3<real_t> v = load_vec3(particles.v, p);
         for (int k = 0; k < forces.count; ++k) {
           const real_t share = particles.force_share(p, k);
-          sum += double(share * (forces.force[3 * k] * v[0] + forces.force[3 * k + 1] * v[1] +
-                                 forces.force[3 * k + 2] * v[2]));
+          sum += double(share *
+                        (forces.force[3 * k] * v[0] + forces.force[3 * k + 1] * v[1] + forces.force[3 * k + 2] * v[2]));
         }
       },
       power);

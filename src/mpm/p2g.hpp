@@ -182,8 +182,7 @@ void p2g_tiled(const ExecutionSpace& space, const P2GParticle<MemorySpace>& kern
   const AtomicGridAdd<MemorySpace> global_add{nodes};
   const GridGeometry<real_t> grid = kernel.grid;
   Kokkos::parallel_for(
-      "mpmrom::fom::p2g_tiled",
-      Policy(space, teams, tiling.team_size).set_scratch_size(0, Kokkos::PerTeam(scratch)),
+      "mpmrom::fom::p2g_tiled", Policy(space, teams, tiling.team_size).set_scratch_size(0, Kokkos::PerTeam(scratch)),
       KOKKOS_LAMBDA(const Member& team) {
         const int first = team.league_rank() * per_team;
         const int last = first + per_team < n ? first + per_team : n;
@@ -224,8 +223,8 @@ void p2g_tiled(const ExecutionSpace& space, const P2GParticle<MemorySpace>& kern
         team.team_barrier();
         Kokkos::parallel_for(Kokkos::TeamThreadRange(team, add.volume), [&](const int l) {
           const real_t mass = add.tile(l);
-          const Vec3<real_t> momentum{{add.tile(add.volume + l), add.tile(2 * add.volume + l),
-                                       add.tile(3 * add.volume + l)}};
+          const Vec3<real_t> momentum{
+              {add.tile(add.volume + l), add.tile(2 * add.volume + l), add.tile(3 * add.volume + l)}};
           if (mass == real_t(0) && momentum[0] == real_t(0) && momentum[1] == real_t(0) && momentum[2] == real_t(0))
             return;
           global_add(add.grid_node(l, grid), nullptr, mass, momentum);

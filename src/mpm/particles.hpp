@@ -19,7 +19,7 @@ struct ParticleViews {
   matrix_view F;  // deformation gradient
   matrix_view C;  // APIC affine velocity matrix (zero with PIC)
   scalar_view mass;
-  scalar_view volume;  // reference volume
+  scalar_view volume;                               // reference volume
   Kokkos::View<real_t**, MemorySpace> force_share;  // (n, forces): share of each external force a point carries
 
   ParticleViews() = default;

@@ -165,8 +165,8 @@ std::set<int> quadrature_cells(const Motion& m, const std::vector<int>& nodes) {
 // Algorithm 2: order^3 Gauss points in each of the cells, and each node gathers the points of the cells around it.
 void gather_quadrature_points(const GridGeometry<real_t>& grid, const std::set<int>& cells, int order,
                               HyperReduction& h, std::vector<std::vector<int>>& gather) {
-  static const double gauss_points[3][3] = {{0, 0, 0}, {-0.5773502691896257, 0.5773502691896257, 0},
-                                            {-0.7745966692414834, 0, 0.7745966692414834}};
+  static const double gauss_points[3][3] = {
+      {0, 0, 0}, {-0.5773502691896257, 0.5773502691896257, 0}, {-0.7745966692414834, 0, 0.7745966692414834}};
   static const double gauss_weights[3][3] = {{2, 0, 0}, {1, 1, 0}, {5.0 / 9, 8.0 / 9, 5.0 / 9}};
   const double half = 0.5 * grid.dx;
   std::unordered_map<int, int> first_point;
@@ -181,8 +181,8 @@ void gather_quadrature_points(const GridGeometry<real_t>& grid, const std::set<i
           h.quadrature_x.push_back(center[0] + half * gauss_points[order - 1][a]);
           h.quadrature_x.push_back(center[1] + half * gauss_points[order - 1][b]);
           h.quadrature_x.push_back(center[2] + half * gauss_points[order - 1][d]);
-          h.quadrature_weight.push_back(half * half * half * gauss_weights[order - 1][a] *
-                                        gauss_weights[order - 1][b] * gauss_weights[order - 1][d]);
+          h.quadrature_weight.push_back(half * half * half * gauss_weights[order - 1][a] * gauss_weights[order - 1][b] *
+                                        gauss_weights[order - 1][d]);
         }
   }
   const int per_cell = order * order * order;
@@ -204,9 +204,8 @@ void gather_quadrature_points(const GridGeometry<real_t>& grid, const std::set<i
 }  // namespace
 
 HyperReduction impl::hyper_reduction_from_motion(const Scene& scene, const RomSettings& settings,
-                                                 const std::vector<int>& samples,
-                                                 const std::vector<double>& positions, std::size_t P,
-                                                 const std::vector<int>& next) {
+                                                 const std::vector<int>& samples, const std::vector<double>& positions,
+                                                 std::size_t P, const std::vector<int>& next) {
   const GridGeometry<real_t> grid = grid_for_scene(scene);
   const Motion motion{grid, positions, P, positions.size() / (3 * P), settings.envelope_margin, next};
   HyperReduction h;

@@ -66,8 +66,8 @@ bool RolloutBatch::running(int rollout) const {
 
 DecodedFields RolloutBatch::decode(int rollout, const std::vector<double>& X) const {
   require_rollout(rollout, size());
-  if (X.size() % 3 != 0) throw std::invalid_argument("decode: points must be (n, 3), got " + std::to_string(X.size()) +
-                                                     " values");
+  if (X.size() % 3 != 0)
+    throw std::invalid_argument("decode: points must be (n, 3), got " + std::to_string(X.size()) + " values");
   std::vector<double> xhat, xhatdot;
   stepper_->latent_of(rollout, xhat, xhatdot);
   return mpmrom::decode(*model_, X, xhat, xhatdot);

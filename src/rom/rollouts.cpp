@@ -65,7 +65,8 @@ void initial_state(const Model& model, const ParticleSamples& samples, const Sce
     const double* X = &samples.X[3 * p];
     const double arm[3] = {X[0] - body.center[0], X[1] - body.center[1], X[2] - body.center[2]};
     const auto& w = body.angular_velocity;
-    const double spin[3] = {w[1] * arm[2] - w[2] * arm[1], w[2] * arm[0] - w[0] * arm[2], w[0] * arm[1] - w[1] * arm[0]};
+    const double spin[3] = {w[1] * arm[2] - w[2] * arm[1], w[2] * arm[0] - w[0] * arm[2],
+                            w[0] * arm[1] - w[1] * arm[0]};
     for (int d = 0; d < 3; ++d) {
       v[3 * p + d] = samples.velocity[3 * p + d];
       moving = moving || v[3 * p + d] != 0.0 || spin[d] != 0.0;
@@ -147,7 +148,6 @@ void save_checkpoint(const impl::BatchStepperBase& stepper, const RomResult& res
   }
 }
 
-
 // FNV-1a over what makes a batch: the network's weights, the scene file, the settings and every rollout's values.
 std::string batch_identity(const Model& model, const std::string& scene_path, const std::vector<std::string>& names,
                            const std::vector<RolloutCase>& cases, const RomSettings& settings) {
@@ -166,14 +166,13 @@ std::string batch_identity(const Model& model, const std::string& scene_path, co
   return std::to_string(hash);
 }
 
-
 }  // namespace
 
 std::unique_ptr<impl::BatchStepperBase> impl::create_stepper(const Model& model, const std::string& scene_path,
-                                                            const std::vector<std::string>& names,
-                                                            const std::vector<RolloutCase>& cases,
-                                                            const RomSettings& settings,
-                                                            const HyperReduction& reduction) {
+                                                             const std::vector<std::string>& names,
+                                                             const std::vector<RolloutCase>& cases,
+                                                             const RomSettings& settings,
+                                                             const HyperReduction& reduction) {
   settings.validate();
   if (model.latent_dim > rom::max_latent_dim)
     throw std::runtime_error("the reduced model supports latent dimensions up to " +
@@ -221,16 +220,15 @@ std::unique_ptr<impl::BatchStepperBase> impl::create_stepper(const Model& model,
     using Manifold = rom::MlpManifold<decltype(width)::value, MemorySpace>;
     stepper = std::make_unique<impl::BatchStepper<Manifold>>(
         Manifold{impl::device_mlp(model, params), team, stage}, model.latent_dim,
-        impl::ReferencePoints{model.X, model.mass, model.volume},
-        first, loads, xhat0, xhatdot0, settings, max_latent_speed, reduction);
+        impl::ReferencePoints{model.X, model.mass, model.volume}, first, loads, xhat0, xhatdot0, settings,
+        max_latent_speed, reduction);
   });
   return stepper;
 }
 
 void impl::record_rollouts(BatchStepperBase& stepper, RomResult& result,
-                           const std::function<void(const RomProgress&)>& progress,
-                           const RolloutCheckpoint& checkpoint, const std::string& identity,
-                           const parallel::Communicator& comm) {
+                           const std::function<void(const RomProgress&)>& progress, const RolloutCheckpoint& checkpoint,
+                           const std::string& identity, const parallel::Communicator& comm) {
   const std::size_t B = std::size_t(stepper.rollouts()), frames = std::size_t(stepper.frames());
   const std::size_t r = std::size_t(stepper.latent_dim());
   result.times = stepper.times();
@@ -246,16 +244,14 @@ void impl::record_rollouts(BatchStepperBase& stepper, RomResult& result,
         result.xhatdot[(b * frames + frame) * r + q] = xhatdot[b * r + q];
       }
   };
-  if (comm.size() > 1)
-    stepper.share_time_step([&comm](double* values, std::size_t count) { comm.max(values, count); });
+  if (comm.size() > 1) stepper.share_time_step([&comm](double* values, std::size_t count) { comm.max(values, count); });
   const bool checkpointing = !checkpoint.path.empty();
   if (!(checkpointing && checkpoint.resume && resume_from_checkpoint(stepper, result, checkpoint.path, identity, comm)))
     record();
   auto last_checkpoint = SteadyClock::now();
   while (stepper.advance_frame()) {
     record();
-    if (progress)
-      progress({stepper.frame(), int(frames) - 1, stepper.time(), stepper.steps(), stepper.step_seconds()});
+    if (progress) progress({stepper.frame(), int(frames) - 1, stepper.time(), stepper.steps(), stepper.step_seconds()});
     // every rank asks, so that all checkpoint at the same frame
     if (checkpointing && stepper.frame() + 1 < int(frames) &&
         comm.any(seconds_since(last_checkpoint) >= checkpoint.seconds)) {
@@ -305,8 +301,7 @@ RomResult run_rollouts(const Model& model, const std::string& scene_path, const 
 RomResult run_rollouts(const parallel::Communicator& comm, const Model& model, const std::string& scene_path,
                        const std::vector<std::string>& names, const std::vector<RolloutCase>& cases,
                        const RomSettings& settings, const HyperReduction& reduction,
-                       const std::function<void(const RomProgress&)>& progress,
-                       const RolloutCheckpoint& checkpoint) {
+                       const std::function<void(const RomProgress&)>& progress, const RolloutCheckpoint& checkpoint) {
   if (comm.size() == 1) return run_rollouts(model, scene_path, names, cases, settings, reduction, progress, checkpoint);
   if (cases.size() < std::size_t(comm.size()))
     throw std::runtime_error(std::to_string(cases.size()) + " rollout(s) cannot be shared by " +

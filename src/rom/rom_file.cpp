@@ -138,8 +138,8 @@ HyperReduction read_hyper_reduction(const std::string& path, const hdf5::Group& 
   const auto weight_shape = reduction.dataset("quadrature_weight").shape();
   if (weight_shape.size() != 1) bad(path, "/hyper_reduction/quadrature_weight must be a vector");
   sets.quadrature_weight = impl::read_checked(path, reduction.dataset("quadrature_weight"), weight_shape, "");
-  sets.quadrature_x = impl::read_checked(path, reduction.dataset("quadrature_x"), {weight_shape[0], 3},
-                                         "(quadrature points, 3)");
+  sets.quadrature_x =
+      impl::read_checked(path, reduction.dataset("quadrature_x"), {weight_shape[0], 3}, "(quadrature points, 3)");
   if (!sets.node_offsets.empty() &&
       (sets.node_offsets.size() != sets.nodes.size() + 1 || sets.node_offsets.front() != 0 ||
        std::size_t(sets.node_offsets.back()) != sets.node_sources.size()))
@@ -267,8 +267,9 @@ RomFile load_rom(const std::string& path) {
   std::int64_t version = 0;
   // Versions 1 and 2 store variable-length string attributes (refused by the HDF5 layer unless trusted); version 1
   // also keeps the per-rollout strings as attributes.
-  const hdf5::File file = impl::open_checked(path, {rom_format, rom_format_version, "ROM", "no such file",
-                                                    "not an mpmrom reduced-model (ROM) file", "incomplete ROM file"},
+  const hdf5::File file = impl::open_checked(path,
+                                             {rom_format, rom_format_version, "ROM", "no such file",
+                                              "not an mpmrom reduced-model (ROM) file", "incomplete ROM file"},
                                              &version);
   for (const char* group : {"parameters", "latent", "outcome", "samples"})
     if (!file.has_child(group)) bad(path, std::string("missing group /") + group);
@@ -311,8 +312,8 @@ RomFile load_rom(const std::string& path) {
   const hdf5::Group samples = file.group("samples");
   const auto sample_shape = samples.dataset("indices").shape();
   if (sample_shape.size() != 1) bad(path, "/samples/indices must be a vector");
-  rom.samples = impl::checked_integers<int>(
-      path, "/samples/indices", impl::read_checked(path, samples.dataset("indices"), sample_shape, ""), 0);
+  rom.samples = impl::checked_integers<int>(path, "/samples/indices",
+                                            impl::read_checked(path, samples.dataset("indices"), sample_shape, ""), 0);
   if (file.has_child("hyper_reduction"))  // absent in files written before it existed
     rom.sets = read_hyper_reduction(path, file.group("hyper_reduction"), rom.samples);
   if (file.has_child("decoded")) {

@@ -242,8 +242,7 @@ std::vector<int> select_samples(const Model& model, const Scene& scene, const Ro
   }
   const std::size_t count = std::size_t(settings.samples);
   switch (settings.selection) {
-    case SampleSelection::Region:
-      return region_samples(model, scene, count);
+    case SampleSelection::Region: return region_samples(model, scene, count);
     case SampleSelection::Random: {
       std::vector<int> order(P);
       std::iota(order.begin(), order.end(), 0);
@@ -255,8 +254,9 @@ std::vector<int> select_samples(const Model& model, const Scene& scene, const Ro
     case SampleSelection::Greedy:
       if (data != nullptr && !data->train.runs.empty()) return greedy_samples(model, *data, count);
       if (model.sample_ranking.empty())
-        throw std::invalid_argument("greedy sample selection: the model stores no sample ranking (it was trained "
-                                    "by an older mpmrom); pass --data SWEEP_DIR or use --selection region");
+        throw std::invalid_argument(
+            "greedy sample selection: the model stores no sample ranking (it was trained "
+            "by an older mpmrom); pass --data SWEEP_DIR or use --selection region");
       if (model.sample_ranking.size() < count)
         throw std::invalid_argument("greedy sample selection: the model ranks " +
                                     std::to_string(model.sample_ranking.size()) + " sample points, " +

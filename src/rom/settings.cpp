@@ -68,7 +68,8 @@ void RomSettings::validate() const {
     throw std::invalid_argument("--max-failed-inversions must be a fraction in [0, 1]");
   if (!(energy_growth >= 0) || !std::isfinite(energy_growth))
     throw std::invalid_argument("--energy-growth must be >= 0 (0: no check)");
-  if (!(end_time >= 0) || !std::isfinite(end_time)) throw std::invalid_argument("--end-time must be >= 0 (0: the scene's)");
+  if (!(end_time >= 0) || !std::isfinite(end_time))
+    throw std::invalid_argument("--end-time must be >= 0 (0: the scene's)");
 }
 
 nlohmann::json HyperReduction::summary() const {

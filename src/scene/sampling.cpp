@@ -11,12 +11,9 @@ namespace mpmrom {
 
 double body_volume(const BodySpec& b) {
   switch (b.shape) {
-    case ShapeKind::Box:
-      return 8 * b.half_extents[0] * b.half_extents[1] * b.half_extents[2];
-    case ShapeKind::Cylinder:
-      return M_PI * b.radius * b.radius * b.height;
-    case ShapeKind::Sphere:
-      return 4.0 / 3.0 * M_PI * b.radius * b.radius * b.radius;
+    case ShapeKind::Box: return 8 * b.half_extents[0] * b.half_extents[1] * b.half_extents[2];
+    case ShapeKind::Cylinder: return M_PI * b.radius * b.radius * b.height;
+    case ShapeKind::Sphere: return 4.0 / 3.0 * M_PI * b.radius * b.radius * b.radius;
   }
   return 0;
 }
@@ -27,10 +24,8 @@ bool body_contains(const BodySpec& b, const Vec3d& p) {
     case ShapeKind::Box:
       return std::fabs(dx) <= b.half_extents[0] && std::fabs(dy) <= b.half_extents[1] &&
              std::fabs(dz) <= b.half_extents[2];
-    case ShapeKind::Cylinder:
-      return dx * dx + dy * dy <= b.radius * b.radius && std::fabs(dz) <= b.height / 2;
-    case ShapeKind::Sphere:
-      return dx * dx + dy * dy + dz * dz <= b.radius * b.radius;
+    case ShapeKind::Cylinder: return dx * dx + dy * dy <= b.radius * b.radius && std::fabs(dz) <= b.height / 2;
+    case ShapeKind::Sphere: return dx * dx + dy * dy + dz * dz <= b.radius * b.radius;
   }
   return false;
 }

@@ -55,11 +55,13 @@ void apply_overrides(const std::string& path, const toml::table& parsed, const s
   }
   if (entries_changed) {
     std::ostringstream changed;
-    changed << "# " << path << " with --set " << [&] {
-      std::string list;
-      for (const auto& o : overrides) list += (list.empty() ? "" : " ") + o;
-      return list;
-    }() << "\n" << *changed_root << "\n";
+    changed << "# " << path << " with --set " <<
+        [&] {
+          std::string list;
+          for (const auto& o : overrides) list += (list.empty() ? "" : " ") + o;
+          return list;
+        }() << "\n"
+            << *changed_root << "\n";
     source_text = changed.str();
   }
 }
@@ -192,8 +194,8 @@ void read_sampling(TableReader& r, const std::string& where, BodySpec& b) {
     for (const auto& node : *points) {
       const toml::array* p = node.as_array();
       if (!p || p->size() != 3) fail(where, "each point must be an array of 3 numbers");
-      b.points.push_back({r.to_number(*p->get(0), "points"), r.to_number(*p->get(1), "points"),
-                          r.to_number(*p->get(2), "points")});
+      b.points.push_back(
+          {r.to_number(*p->get(0), "points"), r.to_number(*p->get(1), "points"), r.to_number(*p->get(2), "points")});
     }
   } else {
     b.count = r.integer<long>("count", 0, 0, 2e9);
@@ -337,12 +339,11 @@ Scene build_scene(const std::string& path, const std::string& text, const toml::
   read_ground(top, path, scene);
   const toml::array* bodies = top.array("body");
   if (!bodies || bodies->empty()) fail(path, "needs at least one [[body]]");
-  scene.bodies = read_tables<BodySpec>(bodies, path, "body", scene.parameters,
-                                       [&](TableReader& r, const std::string& where, std::size_t i) {
-                                         return read_body(r, where, i, scene);
-                                       });
-  scene.dirichlet = read_tables<DirichletSpec>(top.array("dirichlet"), path, "dirichlet", scene.parameters,
-                                               read_dirichlet);
+  scene.bodies = read_tables<BodySpec>(
+      bodies, path, "body", scene.parameters,
+      [&](TableReader& r, const std::string& where, std::size_t i) { return read_body(r, where, i, scene); });
+  scene.dirichlet =
+      read_tables<DirichletSpec>(top.array("dirichlet"), path, "dirichlet", scene.parameters, read_dirichlet);
   scene.forces = read_tables<ForceSpec>(top.array("force"), path, "force", scene.parameters, read_force);
   read_design(top, path, scene);
   top.check_all_used();

@@ -34,8 +34,7 @@ Scene refine_scene(const Scene& scene, double factor) {
       body_lo[d] = std::min(body_lo[d], b.center[d] - b.half_extents[d]);
       body_hi[d] = std::max(body_hi[d], b.center[d] + b.half_extents[d]);
     }
-    const double anchor =
-        scene.domain.lo[d] + std::round((body_lo[d] - scene.domain.lo[d]) / scene.dx) * scene.dx;
+    const double anchor = scene.domain.lo[d] + std::round((body_lo[d] - scene.domain.lo[d]) / scene.dx) * scene.dx;
     const double below = anchor - std::min(scene.domain.lo[d], body_lo[d] - 2 * dx);
     const double above = std::max(scene.domain.hi[d], body_hi[d] + 2 * dx) - anchor;
     lo[d] = anchor - std::ceil(below / dx - 1e-9) * dx;

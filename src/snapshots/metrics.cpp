@@ -25,15 +25,14 @@ nlohmann::json to_json(const ErrorMetrics& m) {
 std::string to_percent_string(const ErrorMetrics& m) {
   std::ostringstream out;
   out.precision(3);
-  out << "position " << 100 * m.position_error << " %, displacement " << 100 * m.displacement_error
-      << " %, velocity " << 100 * m.velocity_error << " %, F " << 100 * m.F_error << " %, strain "
-      << 100 * m.strain_error << " %";
+  out << "position " << 100 * m.position_error << " %, displacement " << 100 * m.displacement_error << " %, velocity "
+      << 100 * m.velocity_error << " %, F " << 100 * m.F_error << " %, strain " << 100 * m.strain_error << " %";
   return out.str();
 }
 
-void ErrorAccumulator::add(const double centroid[3], const double X[3], const double x_ref[3],
-                           const double x_approx[3], const double v_ref[3], const double v_approx[3],
-                           const double F_ref[9], const double F_approx[9]) {
+void ErrorAccumulator::add(const double centroid[3], const double X[3], const double x_ref[3], const double x_approx[3],
+                           const double v_ref[3], const double v_approx[3], const double F_ref[9],
+                           const double F_approx[9]) {
   for (int k = 0; k < 3; ++k) {
     const double dx = x_approx[k] - x_ref[k];
     position_misfit_ += dx * dx;

@@ -39,7 +39,8 @@ bool finished_before(const std::string& path, const Scene& run_scene) {
     return false;  // damaged or incomplete: simulated again and replaced
   }
   if (header.scene_text != run_scene.source_text)
-    throw std::runtime_error(path + ": holds a run of another scene or parameters; remove it or sweep without --resume");
+    throw std::runtime_error(path +
+                             ": holds a run of another scene or parameters; remove it or sweep without --resume");
   return true;
 }
 

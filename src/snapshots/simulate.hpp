@@ -11,12 +11,12 @@
 namespace mpmrom {
 
 struct SimulationProgress {
-  int frame;        // output frames written so far
-  int num_frames;   // frames in the run
-  double time;      // simulated time, s
-  long steps;       // steps taken
+  int frame;       // output frames written so far
+  int num_frames;  // frames in the run
+  double time;     // simulated time, s
+  long steps;      // steps taken
   std::size_t num_particles;
-  double seconds;   // wall-clock time so far
+  double seconds;       // wall-clock time so far
   double step_seconds;  // of which advancing the solver (no output): the cost of the simulation itself
 };
 using SimulationCallback = std::function<void(const SimulationProgress&)>;

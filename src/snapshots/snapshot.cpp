@@ -187,11 +187,12 @@ hdf5::File open_complete_snapshot(const std::string& path) {
   const std::int64_t version = file.integer_attribute("format_version");
   // Version 1 differs in its string attributes only (variable-length), which the HDF5 layer refuses unless trusted.
   if (version < 1 || version > snapshot_format_version) {
-    bad(path, "snapshot format version " + std::to_string(version) + " is not supported (this build reads versions 1 to " +
-                  std::to_string(snapshot_format_version) + ")");
+    bad(path, "snapshot format version " + std::to_string(version) +
+                  " is not supported (this build reads versions 1 to " + std::to_string(snapshot_format_version) + ")");
   }
   if (!file.has_attribute("complete") || file.integer_attribute("complete") != 1) {
-    if (file.has_attribute("failure")) bad(path, "the frames of a run that failed: " + file.string_attribute("failure"));
+    if (file.has_attribute("failure"))
+      bad(path, "the frames of a run that failed: " + file.string_attribute("failure"));
     bad(path, "incomplete snapshot (the run did not finish)");
   }
   return file;
@@ -218,9 +219,7 @@ SnapshotHeader read_header(const hdf5::File& file, const std::string& path) {
 
 }  // namespace
 
-SnapshotHeader read_snapshot_header(const std::string& path) {
-  return read_header(open_complete_snapshot(path), path);
-}
+SnapshotHeader read_snapshot_header(const std::string& path) { return read_header(open_complete_snapshot(path), path); }
 
 Snapshot read_snapshot(const std::string& path, SnapshotFields fields) {
   const hdf5::File file = open_complete_snapshot(path);

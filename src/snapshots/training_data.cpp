@@ -63,8 +63,7 @@ std::vector<std::string> design_column(const std::string& csv_path, const std::s
   return values;
 }
 
-TrainingData load_runs(const std::vector<std::string>& inputs,
-                       const std::function<void(const std::string&)>& on_file) {
+TrainingData load_runs(const std::vector<std::string>& inputs, const std::function<void(const std::string&)>& on_file) {
   if (inputs.empty()) throw std::runtime_error("no full-order runs given");
   std::vector<std::pair<std::string, bool>> files;  // (path, test)
   for (const auto& input : inputs) {

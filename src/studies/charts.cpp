@@ -61,8 +61,7 @@ std::string script(const Chart& chart, const std::string& terminal, const std::s
     else
       gp << "$s" << s << " using 1:2:4 with " << kind << options << " lc palette";
     gp << " title " << quoted(series.title);
-    if (!series.labels.empty())
-      gp << ", $s" << s << " using 1:2:3 with labels offset 0.8,0.6 left font \",8\" notitle";
+    if (!series.labels.empty()) gp << ", $s" << s << " using 1:2:3 with labels offset 0.8,0.6 left font \",8\" notitle";
   }
   gp << "\n";
   return gp.str();
@@ -77,7 +76,8 @@ std::string write_chart(const std::string& dir, const std::string& name, const C
   const std::string svg_script = script(chart, "svg size 1000,640 dynamic font \"sans,11\"", name + ".svg");
   write_file_atomically(base.string() + ".gp", png_script);
   if (std::system("command -v gnuplot > /dev/null 2>&1") != 0) return "gnuplot is not installed: no images drawn";
-  for (const auto& [text, extension] : {std::pair{png_script, std::string(".png")}, std::pair{svg_script, std::string(".svg")}}) {
+  for (const auto& [text, extension] :
+       {std::pair{png_script, std::string(".png")}, std::pair{svg_script, std::string(".svg")}}) {
     // gnuplot writes into a temporary directory; the image is renamed into place once it is whole
     const std::filesystem::path work = base.string() + extension + ".tmp.d";
     std::filesystem::create_directories(work);

@@ -10,9 +10,9 @@ namespace mpmrom {
 struct ChartSeries {
   std::string title;
   std::vector<double> x, y;
-  std::string style = "points";      // a gnuplot style: points, linespoints, lines, steps
-  std::vector<std::string> labels;   // optional: one text label per point, drawn beside it
-  std::vector<double> color;         // optional: one value per point, drawn through the chart's colour scale
+  std::string style = "points";     // a gnuplot style: points, linespoints, lines, steps
+  std::vector<std::string> labels;  // optional: one text label per point, drawn beside it
+  std::vector<double> color;        // optional: one value per point, drawn through the chart's colour scale
 };
 
 struct Chart {

@@ -42,9 +42,8 @@ std::vector<NetworkShape> default_search_networks(int depth) {
 
 json PipelineStudy::search(double target, const std::vector<NetworkShape>& networks) {
   std::vector<NetworkShape> order = networks;
-  std::stable_sort(order.begin(), order.end(), [](const NetworkShape& a, const NetworkShape& b) {
-    return parameters(a) < parameters(b);
-  });
+  std::stable_sort(order.begin(), order.end(),
+                   [](const NetworkShape& a, const NetworkShape& b) { return parameters(a) < parameters(b); });
   json skipped = json::array();
   const auto best_meeting = [&]() -> const json* {
     const json* best = nullptr;

@@ -94,8 +94,9 @@ json run_pipeline(const PipelineSettings& settings, const PipelineLog& log) {
   }
 
   json report = benchmark_record("pipeline", scene.name);
-  report["command"] = !settings.command.empty() ? settings.command
-                                                : "mpmrom pipeline " + settings.scene_path + " --out " + settings.out_dir;
+  report["command"] = !settings.command.empty()
+                          ? settings.command
+                          : "mpmrom pipeline " + settings.scene_path + " --out " + settings.out_dir;
   report["particles"] = study.test_runs().runs.front().num_points;
   report["reference_refinement"] = settings.reference_refinement;
   report["runs"] = {{"train", study.training_runs()},
@@ -116,8 +117,8 @@ json run_pipeline(const PipelineSettings& settings, const PipelineLog& log) {
     const auto& m = models[(*chosen)["network"].get<std::string>()];
     const RomConfiguration configuration{rom_method_from_string((*chosen)["method"].get<std::string>()),
                                          (*chosen)["samples"].get<int>(), (*chosen)["cfl"].get<double>()};
-    report["batch"] = study.batch_throughput(
-        {m["latent_dim"].get<int>(), m["width"].get<int>(), m["depth"].get<int>()}, configuration);
+    report["batch"] = study.batch_throughput({m["latent_dim"].get<int>(), m["width"].get<int>(), m["depth"].get<int>()},
+                                             configuration);
   }
   report["wall_seconds"] = seconds_since(start);
   const auto problems = draw_pipeline_charts(settings.out_dir, report);

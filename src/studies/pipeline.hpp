@@ -19,15 +19,15 @@ namespace mpmrom {
 // A network shape: latent dimension r, hidden width and affine layers.
 struct NetworkShape {
   int latent_dim = 5, width = 48, depth = 5;
-  std::string name() const;  // "r5_w48_d5"
+  std::string name() const;                            // "r5_w48_d5"
   static NetworkShape parse(const std::string& text);  // "5x48x5" (r x width x depth); throws std::invalid_argument
 };
 
 // One reduced-model configuration on a trained network.
 struct RomConfiguration {
   RomMethod method = RomMethod::MaterialPoint;
-  int samples = 15;  // 0: all points
-  double cfl = 0;    // 0: the scene's
+  int samples = 15;          // 0: all points
+  double cfl = 0;            // 0: the scene's
   std::string name() const;  // "point_s15_cfl0.3"
 };
 
@@ -44,7 +44,7 @@ struct PipelineSettings {
   std::vector<int> samples{8, 15, 30, 0};
   std::vector<double> rom_cfls{0, 3.0};
   SampleSelection selection = SampleSelection::Greedy;
-  int validation_runs = -1;  // training runs held out to choose models (-1: about a sixth of them, at least 1)
+  int validation_runs = -1;           // training runs held out to choose models (-1: about a sixth of them, at least 1)
   std::vector<double> target_errors;  // position_error targets for the model search (fractions; empty: no search)
   std::vector<int> batch_sizes{1, 4, 16, 64};  // batch throughput of the chosen (or only) configuration
   double batch_end_time = 0;                   // horizon of the batch benchmark (0: 4 output intervals)

@@ -113,7 +113,9 @@ void set_config(StabilityCase& c, const RomConfig& config) {
 class StabilityStudy {
  public:
   StabilityStudy(const StabilitySettings& settings, const std::function<void(const StabilityCase&)>& on_case)
-      : settings_(settings), on_case_(on_case), runner_(settings.scene_path, settings.selection),
+      : settings_(settings),
+        on_case_(on_case),
+        runner_(settings.scene_path, settings.selection),
         model_(load_model(settings.model_path)) {
     const Scene& base = runner_.scene();
     if (base.design.names.empty())
@@ -192,14 +194,15 @@ class StabilityStudy {
     const FomRun& ref = reference(reference_path, c.values);
     const FomRun run = run_fom(scene_for_run(scene_path, runner_.names(), c.values));
     c.seconds = run.seconds;
-    c.details = {{"steps", run.steps}, {"safeguarded_steps", run.safeguarded_steps},
-                 {"energy_over_budget", run.energy_ratio}};
+    c.details = {
+        {"steps", run.steps}, {"safeguarded_steps", run.safeguarded_steps}, {"energy_over_budget", run.energy_ratio}};
     if (!run.cause.empty()) {
       c.cause = run.cause + ": " + run.message;
       c.stopped_at = run.stopped_at;
     }
-    record(c, ref, run.frames.num_frames == 0 ? std::vector<ErrorAccumulator>{}
-                                               : resolution_errors_by_frame(ref.frames, run.frames),
+    record(c, ref,
+           run.frames.num_frames == 0 ? std::vector<ErrorAccumulator>{}
+                                      : resolution_errors_by_frame(ref.frames, run.frames),
            !run.cause.empty());
   }
 
@@ -337,9 +340,9 @@ void material_study(StabilityStudy& study, const StabilitySettings& settings, co
   std::vector<std::pair<std::string, std::string>> materials;
   for (const double nu : settings.poisson_ratios)
     materials.push_back({"nu " + general(nu), "material.poisson_ratio=" + general(nu, 17)});
-  materials.push_back({"E x" + general(settings.stiffer),
-                       "material.youngs_modulus=" +
-                           general(study.scene().material.youngs_modulus * settings.stiffer, 17)});
+  materials.push_back(
+      {"E x" + general(settings.stiffer),
+       "material.youngs_modulus=" + general(study.scene().material.youngs_modulus * settings.stiffer, 17)});
   for (const auto& [label, override_text] : materials) {
     const std::string path = study.variant(file_label("material " + label), {override_text});
     StabilityCase c;

@@ -17,7 +17,7 @@ namespace mpmrom {
 struct StabilitySettings {
   std::string scene_path;  // the scene of the sweep the model was trained on
   std::string model_path;
-  std::string data_dir;    // the sweep: greedy sample selection fits its training runs
+  std::string data_dir;  // the sweep: greedy sample selection fits its training runs
   std::string out_dir;
   int samples = 15;  // the hyper-reduced configurations' sample points
   SampleSelection selection = SampleSelection::Greedy;
@@ -28,7 +28,7 @@ struct StabilitySettings {
   std::vector<double> rom_cfl{0.3, 1.0, 3.0, 10.0};
   // Distance beyond the top of the training range, in widths of it, all parameters together (-0.5: the centre).
   std::vector<double> extrapolation{-0.5, 0.0, 0.5, 1.0};
-  std::vector<double> horizons{1, 4, 10};      // multiples of the training window
+  std::vector<double> horizons{1, 4, 10};        // multiples of the training window
   std::vector<double> load_factors{1, 2, 4, 8};  // the first design parameter, times this (Algorithm 2's Newton)
   std::vector<double> poisson_ratios{0.45, 0.49};
   double stiffer = 4;  // Young's modulus times this

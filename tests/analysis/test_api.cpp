@@ -71,8 +71,8 @@ TEST_F(RolloutBatchApi, SteppingFrameByFrameReproducesTheBatchDriver) {
 
   std::vector<RolloutCase> cases;
   for (const auto& p : pushes) cases.push_back({p, ""});
-  const RomResult reference = run_rollouts(rom.model(), scene_path(), rom.parameter_names(), cases, rom.settings(),
-                                           rom.hyper_reduction());
+  const RomResult reference =
+      run_rollouts(rom.model(), scene_path(), rom.parameter_names(), cases, rom.settings(), rom.hyper_reduction());
   const std::size_t r = std::size_t(batch.latent_dim()), frames = std::size_t(batch.frames());
   EXPECT_EQ(batch.times(), reference.times);
   for (std::size_t frame = 0; frame < frames; ++frame) {
@@ -163,8 +163,8 @@ TEST_F(RolloutBatchApi, EvaluationTakesReferenceRunsOfAnySplit) {
   std::vector<RolloutCase> cases;
   for (const double push : {0.5, 1.0, 1.5}) cases.push_back({{push}, ""});
   RomFile file;
-  file.result = run_rollouts(rom.model(), scene_path(), rom.parameter_names(), cases, rom.settings(),
-                             rom.hyper_reduction());
+  file.result =
+      run_rollouts(rom.model(), scene_path(), rom.parameter_names(), cases, rom.settings(), rom.hyper_reduction());
   const auto errors = evaluate_rom(file, rom.model(), load_runs({all_test.string()}));
   EXPECT_EQ(errors["matched"], 3);
   EXPECT_TRUE(std::isfinite(errors["test"]["position_error"].get<double>())) << errors.dump();
@@ -173,7 +173,7 @@ TEST_F(RolloutBatchApi, EvaluationTakesReferenceRunsOfAnySplit) {
 
 TEST_F(RolloutBatchApi, BadRequestsAreRefused) {
   const auto rom = ReducedModel::load(model_path(), scene_path(), settings());
-  EXPECT_THROW(rom.batch({}), std::runtime_error);          // no rollouts
+  EXPECT_THROW(rom.batch({}), std::runtime_error);            // no rollouts
   EXPECT_THROW(rom.batch({{1.0, 2.0}}), std::runtime_error);  // two values for one parameter
   const auto batch = rom.batch({{1.0}});
   EXPECT_THROW(batch.decode(1, rom.reference_points()), std::out_of_range);

@@ -79,7 +79,8 @@ TEST(ResolutionErrors, TransferErrorFallsAsSpacingSquared) {
   // The expansion x_p + F_p dX leaves eps t k^2 sin(k X_0) dX_0^2 / 2: the position error is the RMS of dX_0^2 (times
   // the same smooth factor), and F's error, taken at the nearest point, the RMS of dX_0. Against a 24^3 lattice, a
   // 12^3 lattice's nearest points lie 1/48 away along X_0, a 6^3 lattice's 1/48 or 3/48 (equally often), so
-  // h^2 predicts sqrt((1 + 81) / 2) = sqrt(41) for the position ratio and first order sqrt((1 + 9) / 2) = sqrt(5) for F.
+  // h^2 predicts sqrt((1 + 81) / 2) = sqrt(41) for the position ratio and first order sqrt((1 + 9) / 2) = sqrt(5) for
+  // F.
   const Motion bent{0.05, 6.0};
   const Snapshot reference = lattice_run(24, bent);
   const auto coarse = resolution_errors(reference, lattice_run(6, bent)).metrics();

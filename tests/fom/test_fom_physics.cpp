@@ -59,7 +59,6 @@ Energies energies(const FomSolver& solver, const Scene& scene) {
   return e;
 }
 
-
 TEST(FomPhysics, FreeFallFollowsTheParabola) {
   const Scene scene = fixture_scene("free_fall.toml");
   FomSolver solver(scene);
@@ -79,7 +78,6 @@ TEST(FomPhysics, FreeFallFollowsTheParabola) {
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j) ASSERT_NEAR(f.F[9 * p + 3 * i + j], i == j ? 1.0 : 0.0, 64 * steps * eps);
 }
-
 
 // Free fall: the budget is the work of gravity counted at the updated velocities, sum m g dt . v_{n+1}, which exceeds
 // the kinetic energy gained, m g dt . (v_n + v_{n+1}) / 2, by m g^2 dt^2 / 2 per step: over a time T in N steps of
@@ -159,13 +157,15 @@ TEST(FomPhysics, RigidRotationKeepsFOrthogonalAndStressFree) {
 
 // Runs the bar for 1.25 periods and returns (measured period, largest relative energy change).
 std::pair<double, double> vibrate_bar(double dx) {
-  const Scene scene = fixture_scene("vibrating_bar.toml", {"body.0.spacing=" + std::to_string(dx / 2), "grid.dx=" + std::to_string(dx)});
+  const Scene scene = fixture_scene("vibrating_bar.toml",
+                                    {"body.0.spacing=" + std::to_string(dx / 2), "grid.dx=" + std::to_string(dx)});
   FomSolver solver(scene);
   const double L = 1.0, c = 100.0, V = 0.05;  // V / c = 5e-4: small strain, linear regime
   {
     auto v = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), solver.particles().v);
     auto X = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), solver.particles().X);
-    for (std::size_t p = 0; p < solver.num_particles(); ++p) v(p, 0) = real_t(V * std::cos(M_PI * (X(p, 0) + L / 2) / L));
+    for (std::size_t p = 0; p < solver.num_particles(); ++p)
+      v(p, 0) = real_t(V * std::cos(M_PI * (X(p, 0) + L / 2) / L));
     Kokkos::deep_copy(solver.particles().v, v);
   }
   const std::size_t n = solver.num_particles();
@@ -238,8 +238,8 @@ TEST(FomPhysics, CollidingSpheresReboundSymmetrically) {
     const Energies e = energies(solver, scene);
     worst_gain = std::max(worst_gain, (e.total() - e0.total()) / e0.total());
     least_total = std::min(least_total, e.total());
-    worst_asymmetry = std::max(worst_asymmetry, std::fabs(center_of_mass(solver, 0, 0, half) +
-                                                          center_of_mass(solver, 0, half, n)));
+    worst_asymmetry =
+        std::max(worst_asymmetry, std::fabs(center_of_mass(solver, 0, 0, half) + center_of_mass(solver, 0, half, n)));
     worst_momentum = std::max(worst_momentum, std::fabs(mean_velocity(solver, 0, 0, n)) * total_mass);
   }
   const double v_left = mean_velocity(solver, 0, 0, half), v_right = mean_velocity(solver, 0, half, n);

@@ -285,8 +285,8 @@ LossResult<ExecutionSpace, T> evaluate_loss(const LossProblem& problem, const st
   weights.velocity_scale = T(problem.weights.velocity_scale);
 
   const int batch_snapshots = int(batch.snapshot.extent(0));
-  nn::TrainingBuffers<T, Mem> buffers(ExecutionSpace(), net.layout, channels,
-                                      batch_snapshots * problem.per_snapshot, batch_snapshots);
+  nn::TrainingBuffers<T, Mem> buffers(ExecutionSpace(), net.layout, channels, batch_snapshots * problem.per_snapshot,
+                                      batch_snapshots);
   Kokkos::View<T*, Mem> grad("grad", with_gradient ? params.size() : 0);
   const auto terms = nn::minibatch_loss(ExecutionSpace(), d.mlp, table, channels, weights, batch, buffers, grad);
   LossResult<ExecutionSpace, T> result;
@@ -314,7 +314,8 @@ void check_loss_gradient_against_finite_differences(double lambda_gradient, doub
     const double fd = (evaluate_loss<ExecutionSpace, double>(problem, plus, false).loss -
                        evaluate_loss<ExecutionSpace, double>(problem, minus, false).loss) /
                       (2 * h);
-    EXPECT_NEAR(exact.grad[i], fd, tol) << "parameter " << i << (int(i) >= problem.net.layout.num_params ? " (code)" : "");
+    EXPECT_NEAR(exact.grad[i], fd, tol) << "parameter " << i
+                                        << (int(i) >= problem.net.layout.num_params ? " (code)" : "");
     if (int(i) >= problem.net.layout.num_params && exact.grad[i] != 0) ++checked_codes;
   }
   // Codes 0, 2, 3 are in the batch and codes 1 and 3 enter through the rates: with a velocity term every code has a
@@ -355,7 +356,7 @@ struct TeamKinematicsRun {
 
   nn::TeamMlp<double, MemorySpace> net;
   Kokkos::View<const double**, Kokkos::LayoutRight, MemorySpace> X, xhat, xhatdot;  // per item
-  Kokkos::View<double**, Kokkos::LayoutRight, MemorySpace> kinematics, jacobian;  // per item
+  Kokkos::View<double**, Kokkos::LayoutRight, MemorySpace> kinematics, jacobian;    // per item
   int threads, per_thread;
   bool stage;
 
@@ -369,8 +370,8 @@ struct TeamKinematicsRun {
     bool any_jacobian = false;
     for (long f = first; f < first + threads && f < items; ++f) any_jacobian = any_jacobian || wants_jacobian(f);
     const int shared = stage ? net.arranged.size : 0;
-    double* base = static_cast<double*>(member.team_scratch(0).get_shmem_aligned(
-        std::size_t(shared + threads * per_thread) * sizeof(double), 64));
+    double* base = static_cast<double*>(
+        member.team_scratch(0).get_shmem_aligned(std::size_t(shared + threads * per_thread) * sizeof(double), 64));
     const double* weights = net.values.data();
     if (stage) {
       const auto values = net.values;
@@ -431,11 +432,17 @@ void check_team_kinematics_match_serial() {
     for (int lanes = 1; lanes <= lanes_max; lanes *= 2) {
       for (const bool stage : {false, true}) {
         const int threads = host ? 1 : 3;
-        if (stage && net.arranged.size * sizeof(double) > 32 * 1024) continue;  // as the ROM: weights in scratch if small
-        Run run{net, matrix(X, 3), matrix(xhat, r), matrix(xhatdot, r),
+        if (stage && net.arranged.size * sizeof(double) > 32 * 1024)
+          continue;  // as the ROM: weights in scratch if small
+        Run run{net,
+                matrix(X, 3),
+                matrix(xhat, r),
+                matrix(xhatdot, r),
                 Kokkos::View<double**, Kokkos::LayoutRight, MemorySpace>("kinematics", items, Run::outputs),
-                Kokkos::View<double**, Kokkos::LayoutRight, MemorySpace>("jacobian", items, 3 * r), threads,
-                (net.thread_scratch_values() + Run::outputs + 7) / 8 * 8, stage};
+                Kokkos::View<double**, Kokkos::LayoutRight, MemorySpace>("jacobian", items, 3 * r),
+                threads,
+                (net.thread_scratch_values() + Run::outputs + 7) / 8 * 8,
+                stage};
         const std::size_t bytes = std::size_t((stage ? net.arranged.size : 0) + threads * run.per_thread) * 8 + 64;
         Kokkos::parallel_for(Kokkos::TeamPolicy<ExecutionSpace>((items + threads - 1) / threads, threads, lanes)
                                  .set_scratch_size(0, Kokkos::PerTeam(bytes)),
@@ -451,12 +458,12 @@ void check_team_kinematics_match_serial() {
           const double tolerance = 1e-12;
           const double* want = reinterpret_cast<const double*>(&expected);
           for (int c = 0; c < Run::outputs; ++c)
-            EXPECT_NEAR(kinematics(e, c), want[c], tolerance)
-                << "width " << shape.width << " lanes " << lanes << " stage " << stage << " item " << e << " value " << c;
+            EXPECT_NEAR(kinematics(e, c), want[c], tolerance) << "width " << shape.width << " lanes " << lanes
+                                                              << " stage " << stage << " item " << e << " value " << c;
           if (!Run::wants_jacobian(e)) continue;
           for (int q = 0; q < 3 * r; ++q)
-            EXPECT_NEAR(jacobian(e, q), J[q], tolerance)
-                << "width " << shape.width << " lanes " << lanes << " stage " << stage << " item " << e << " entry " << q;
+            EXPECT_NEAR(jacobian(e, q), J[q], tolerance) << "width " << shape.width << " lanes " << lanes << " stage "
+                                                         << stage << " item " << e << " entry " << q;
         }
       }
     }

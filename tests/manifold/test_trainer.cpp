@@ -123,9 +123,9 @@ TEST(Trainer, ResumesAKilledRunBitForBit) {
   settings.checkpoint_seconds = 0;  // a checkpoint after every epoch
   const Model uninterrupted = train_model(data, settings, "", false);
 
-  const std::string checkpoint = (std::filesystem::temp_directory_path() /
-                                  ("mpmrom_test_resume_" + std::to_string(::getpid()) + ".h5.ckpt"))
-                                     .string();
+  const std::string checkpoint =
+      (std::filesystem::temp_directory_path() / ("mpmrom_test_resume_" + std::to_string(::getpid()) + ".h5.ckpt"))
+          .string();
   TrainingCallbacks kill_at_7;
   kill_at_7.progress = [](const TrainingProgress& p) {
     if (p.epoch == 7) throw std::runtime_error("killed");

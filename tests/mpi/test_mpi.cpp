@@ -255,8 +255,7 @@ TEST_F(Mpi, RolloutResumesFromCheckpointsOfDifferentFrames) {
   RomSettings settings;
   settings.samples = 8;
   settings.selection = SampleSelection::Region;  // the fixture's model ranks no samples (trained by train_model)
-  const auto reduction =
-      build_hyper_reduction(model, scene, settings, select_samples(model, scene, settings, nullptr));
+  const auto reduction = build_hyper_reduction(model, scene, settings, select_samples(model, scene, settings, nullptr));
   RolloutCheckpoint checkpoint;
   checkpoint.path = (dir_ / "rom.h5.ckpt").string();
   checkpoint.seconds = 0;  // at every output frame but the last: frames 1, 2 and 3 of 0-4
@@ -279,8 +278,8 @@ TEST_F(Mpi, RolloutResumesFromCheckpointsOfDifferentFrames) {
   }
   world.barrier();
   checkpoint.resume = true;
-  const auto from_frame_1 = run_rollouts(world, model, scene_path(), {"push"}, rollout_cases(), settings, reduction,
-                                         {}, checkpoint);
+  const auto from_frame_1 =
+      run_rollouts(world, model, scene_path(), {"push"}, rollout_cases(), settings, reduction, {}, checkpoint);
   if (world.is_root()) {
     SCOPED_TRACE("resumed from frame 1");
     expect_same_rollouts(from_frame_1, reference);
@@ -289,8 +288,8 @@ TEST_F(Mpi, RolloutResumesFromCheckpointsOfDifferentFrames) {
     fs::rename(file_of(world.size() - 1), file_of(world.size() - 1) + ".prev");
   }
   world.barrier();
-  const auto from_frame_3 = run_rollouts(world, model, scene_path(), {"push"}, rollout_cases(), settings, reduction,
-                                         {}, checkpoint);
+  const auto from_frame_3 =
+      run_rollouts(world, model, scene_path(), {"push"}, rollout_cases(), settings, reduction, {}, checkpoint);
   if (world.is_root()) {
     SCOPED_TRACE("resumed from frame 3, one rank's checkpoint in .prev");
     expect_same_rollouts(from_frame_3, reference);

@@ -117,8 +117,9 @@ struct TransferSetup {
   // P2G with dt = 0 (no forces), then the grid update with dt = 0 (momentum to velocity).
   void p2g(P2GStrategy strategy, bool apic, const P2GTiling& tiling = default_p2g_tiling<ExecutionSpace>()) {
     const ExecutionSpace space;
-    const P2GParticle<MemorySpace> kernel{particles, grid, elastic_material<real_t>(ElasticModel::FixedCorotated, 1, 0),
-                                          ExternalForces{}, real_t(0), apic, outside};
+    const P2GParticle<MemorySpace> kernel{
+        particles, grid,   elastic_material<real_t>(ElasticModel::FixedCorotated, 1, 0), ExternalForces{}, real_t(0),
+        apic,      outside};
     Kokkos::deep_copy(nodes, real_t(0));
     switch (strategy) {
       case P2GStrategy::Atomic: p2g_atomic(space, kernel, nodes); break;

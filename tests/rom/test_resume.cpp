@@ -154,8 +154,9 @@ TEST_F(Resume, ResumingASweepOfAnotherSceneIsRefused) {
 TEST_F(Resume, KilledTrainingResumesToTheUninterruptedModel) {
   const fs::path sweep = dir_ / "sweep";
   ASSERT_EQ(run({"sweep", scene_, "--out", sweep.string()}), 0);
-  const std::vector<std::string> train{"train",   sweep.string(), "--latent", "2", "--width", "8", "--depth", "3",
-                                       "--epochs", "60",          "--checkpoint-seconds", "0"};
+  const std::vector<std::string> train{
+      "train", sweep.string(),         "--latent", "2", "--width", "8", "--depth", "3", "--epochs",
+      "60",    "--checkpoint-seconds", "0"};
   auto with = [&](std::vector<std::string> args, const std::vector<std::string>& more) {
     args.insert(args.end(), more.begin(), more.end());
     return args;
@@ -180,9 +181,9 @@ TEST_F(Resume, KilledRolloutResumesToTheUninterruptedResult) {
   const fs::path sweep = dir_ / "sweep";
   ASSERT_EQ(run({"sweep", scene_, "--out", sweep.string()}), 0);
   const std::string model = (dir_ / "model.h5").string();
-  ASSERT_EQ(run({"train", sweep.string(), "--out", model, "--latent", "2", "--width", "8", "--depth", "3", "--epochs",
-                 "30"}),
-            0);
+  ASSERT_EQ(
+      run({"train", sweep.string(), "--out", model, "--latent", "2", "--width", "8", "--depth", "3", "--epochs", "30"}),
+      0);
   {
     std::ofstream params(dir_ / "params.csv");
     params << "push\n";
@@ -190,8 +191,9 @@ TEST_F(Resume, KilledRolloutResumesToTheUninterruptedResult) {
   }
   for (const std::string method : {"point", "node"}) {
     const std::vector<std::string> rollout{
-        "rollout",   model, scene_, "--params",             (dir_ / "params.csv").string(), "--method", method,
-        "--samples", "8",   "--end-time", "1", "--checkpoint-seconds", "0", "--energy-growth", "0"};
+        "rollout",   model, scene_,       "--params", (dir_ / "params.csv").string(), "--method", method,
+        "--samples", "8",   "--end-time", "1",        "--checkpoint-seconds",         "0",        "--energy-growth",
+        "0"};
     auto with = [&](std::vector<std::string> args, const std::vector<std::string>& more) {
       args.insert(args.end(), more.begin(), more.end());
       return args;
@@ -221,11 +223,11 @@ TEST_F(Resume, ResumingARolloutFromAnotherBatchIsRefused) {
   const fs::path sweep = dir_ / "sweep";
   ASSERT_EQ(run({"sweep", scene_, "--out", sweep.string()}), 0);
   const std::string model = (dir_ / "model.h5").string(), rom = (dir_ / "rom.h5").string();
-  ASSERT_EQ(run({"train", sweep.string(), "--out", model, "--latent", "2", "--width", "8", "--depth", "3", "--epochs",
-                 "10"}),
-            0);
-  const std::vector<std::string> rollout{"rollout", model, scene_, "--out", rom, "--samples", "8",
-                                         "--checkpoint-seconds", "0", "--end-time", "5"};
+  ASSERT_EQ(
+      run({"train", sweep.string(), "--out", model, "--latent", "2", "--width", "8", "--depth", "3", "--epochs", "10"}),
+      0);
+  const std::vector<std::string> rollout{
+      "rollout", model, scene_, "--out", rom, "--samples", "8", "--checkpoint-seconds", "0", "--end-time", "5"};
   ASSERT_TRUE(run_and_kill_at(rollout, rom + ".ckpt"));
   std::vector<std::string> other = rollout;
   other.insert(other.end(), {"--cfl", "0.1", "--resume"});  // another time step: another batch

@@ -163,7 +163,8 @@ struct WarpMap {  // g(X) = X + a sin(k X_{i+1}) e_i: invertible while a k < 1/2
     for (int i = 0; i < 3; ++i) {
       const int j = (i + 1) % 3;
       g[i] = X[i] + a * std::sin(k * X[j]);
-      for (int c = 0; c < 3; ++c) F[i][c] = (c == i ? real_t(1) : real_t(0)) + (c == j ? a * k * std::cos(k * X[j]) : 0);
+      for (int c = 0; c < 3; ++c)
+        F[i][c] = (c == i ? real_t(1) : real_t(0)) + (c == j ? a * k * std::cos(k * X[j]) : 0);
     }
   }
 };
@@ -234,8 +235,10 @@ struct AffineManifold : rom::TeamFromSerial<AffineManifold> {
     for (int i = 0; i < 3; ++i)
       for (int q = 0; q < 12; ++q) {
         real_t d = 0;
-        if (q < 3) d = q == i ? real_t(1) : real_t(0);
-        else if ((q - 3) / 3 == i) d = X[(q - 3) % 3] - c[(q - 3) % 3];
+        if (q < 3)
+          d = q == i ? real_t(1) : real_t(0);
+        else if ((q - 3) / 3 == i)
+          d = X[(q - 3) % 3] - c[(q - 3) % 3];
         dgdxhat[i * 12 + q] = d;
       }
   }
@@ -244,7 +247,6 @@ struct AffineManifold : rom::TeamFromSerial<AffineManifold> {
 // A box translating and spinning with negligible stiffness (stress ~1e-6 Pa: its effect over the run, ~1e-9 m, is far
 // below the tolerances); gravity and spin are set per test.
 Scene affine_scene(const Vec3d& gravity, const Vec3d& spin) {
-
   Scene scene = fixture_scene("affine_motion.toml");
   scene.gravity = gravity;
   scene.bodies[0].angular_velocity = spin;
@@ -335,9 +337,10 @@ std::pair<double, double> deviation(const RomResult& result, const Motion& motio
   return {worst_x, worst_v};
 }
 
-const std::vector<std::pair<RomMethod, int>> kConfigurations = {
-    {RomMethod::MaterialPoint, 0}, {RomMethod::MaterialPoint, 16}, {RomMethod::SampleNode, 0},
-    {RomMethod::SampleNode, 16}};
+const std::vector<std::pair<RomMethod, int>> kConfigurations = {{RomMethod::MaterialPoint, 0},
+                                                                {RomMethod::MaterialPoint, 16},
+                                                                {RomMethod::SampleNode, 0},
+                                                                {RomMethod::SampleNode, 16}};
 
 // Free fall: the full-order model is exact here (a uniform field passes the transfers unchanged), so the ROM must
 // give the same velocities to rounding; positions may differ by the two time-step sequences, each within g t dt / 2

@@ -14,7 +14,6 @@
 namespace mpmrom::test {
 namespace {
 
-
 TEST(PipelineValidation, HoldsOutInteriorTrainingRunsNeverTestRuns) {
   const Scene scene = fixture_scene("three_parameter_design.toml");
   const auto held_out = validation_runs(scene, -1);
@@ -26,7 +25,7 @@ TEST(PipelineValidation, HoldsOutInteriorTrainingRunsNeverTestRuns) {
   for (std::size_t r : held_out)
     for (int t : scene.design.test_runs) EXPECT_NE(r, std::size_t(t));
   EXPECT_EQ(validation_runs(scene, 1), std::vector<std::size_t>{14});  // the middle of {12, 14}
-  EXPECT_THROW(validation_runs(scene, 22), std::runtime_error);  // nothing would be left to train on
+  EXPECT_THROW(validation_runs(scene, 22), std::runtime_error);        // nothing would be left to train on
 }
 
 TEST(PipelineFront, KeepsOnlyConfigurationsNothingCheaperBeats) {

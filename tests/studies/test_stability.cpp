@@ -76,8 +76,8 @@ TEST(FomDetectors, NonFiniteVelocityStopsTheStepItAppearsIn) {
 
 TEST(FomDetectors, InvertedDeformationGradientStopsTheStepItAppearsIn) {
   // F = diag(1, 1, -1): a mirrored point, det F = -1
-  expect_stopped([](const auto& particles) { poke_value(particles.F, 5, 2, 2, real_t(-1)); },
-                 FomFailureCause::Inverted, "det F <= 0", true);
+  expect_stopped([](const auto& particles) { poke_value(particles.F, 5, 2, 2, real_t(-1)); }, FomFailureCause::Inverted,
+                 "det F <= 0", true);
 }
 
 TEST(FomDetectors, MaterialOutsideTheGridStopsTheRun) {

@@ -43,10 +43,10 @@ inline std::string pushed_block_scene(const std::string& name, double end_time, 
   std::string file = fixture_text("pushed_block.toml");
   const std::string default_name = "name = \"pushed_block\"";
   file.replace(file.find(default_name), default_name.size(), "name = \"" + name + "\"");
-  return parse_scene(file, name,
-                     {"time.end_time=" + text(end_time), "time.outputs=" + std::to_string(outputs),
-                      "time.cfl=" + text(cfl), "design.push=" + design.str(),
-                      "design.test=[" + std::to_string(test_run) + "]"})
+  return parse_scene(
+             file, name,
+             {"time.end_time=" + text(end_time), "time.outputs=" + std::to_string(outputs), "time.cfl=" + text(cfl),
+              "design.push=" + design.str(), "design.test=[" + std::to_string(test_run) + "]"})
       .source_text;
 }
 

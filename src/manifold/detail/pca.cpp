@@ -130,8 +130,7 @@ std::vector<double> principal_coordinates(const std::vector<double>& data, std::
     for (std::size_t i = 1; i < rows; ++i)
       if (std::abs(u[i]) > std::abs(u[largest])) largest = i;
     const double sign = u[largest] < 0 ? -1.0 : 1.0;
-    for (std::size_t i = 0; i < rows; ++i)
-      coordinates[i * r + k] = sign * u[i] * std::sqrt(lambda) / first_spread;
+    for (std::size_t i = 0; i < rows; ++i) coordinates[i * r + k] = sign * u[i] * std::sqrt(lambda) / first_spread;
   }
   return coordinates;
 }

@@ -91,17 +91,15 @@ void download_state(const DeviceState& d, int num_weights, Model& model, Optimiz
   optimizer.second_moment = download(d.second_moment);
 }
 
-MinibatchStaging::MinibatchStaging(const nn::MlpLayout& layout, nn::Channels channels,
-                                   const TrainingSettings& settings, int per_snapshot,
-                                   const std::vector<int>& validation_points)
+MinibatchStaging::MinibatchStaging(const nn::MlpLayout& layout, nn::Channels channels, const TrainingSettings& settings,
+                                   int per_snapshot, const std::vector<int>& validation_points)
     : monitor_points(monitor_points_of(validation_points)),
       validation_group(std::max(1, 4096 / std::max(int(monitor_points.size()), 1))),
       batch_snapshots("mpmrom::train::batch_snapshot",
                       std::size_t(std::max(settings.batch_snapshots, validation_group))),
       batch_rows("mpmrom::train::batch_row", std::size_t(std::max(settings.batch_snapshots, validation_group))),
-      batch_points("mpmrom::train::batch_point",
-                   std::max(std::size_t(settings.batch_snapshots) * per_snapshot,
-                            std::size_t(validation_group) * monitor_points.size())),
+      batch_points("mpmrom::train::batch_point", std::max(std::size_t(settings.batch_snapshots) * per_snapshot,
+                                                          std::size_t(validation_group) * monitor_points.size())),
       buffers(layout, channels) {}
 
 }  // namespace mpmrom::impl

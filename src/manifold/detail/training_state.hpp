@@ -45,8 +45,7 @@ class IndexStaging {
 class GradientSum {
  public:
   explicit GradientSum(const DeviceVector& grad) : host_(Kokkos::create_mirror_view(grad)) {}
-  void sum(const Kokkos::DefaultExecutionSpace& space, const DeviceVector& grad,
-           const parallel::Communicator& comm) {
+  void sum(const Kokkos::DefaultExecutionSpace& space, const DeviceVector& grad, const parallel::Communicator& comm) {
     Kokkos::deep_copy(space, host_, grad);
     space.fence();
     comm.sum(host_.data(), host_.size());

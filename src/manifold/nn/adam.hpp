@@ -20,8 +20,8 @@ struct AdamSettings {
 template <class ExecutionSpace, class T, class MemorySpace>
 void adam_step(const ExecutionSpace& space, const Kokkos::View<T*, MemorySpace>& params,
                const Kokkos::View<const T*, MemorySpace>& grad, const Kokkos::View<T*, MemorySpace>& m,
-               const Kokkos::View<T*, MemorySpace>& v, const int begin, const int end, const double lr,
-               const long step, const AdamSettings settings = {}) {
+               const Kokkos::View<T*, MemorySpace>& v, const int begin, const int end, const double lr, const long step,
+               const AdamSettings settings = {}) {
   const T beta1 = T(settings.beta1), beta2 = T(settings.beta2), epsilon = T(settings.epsilon);
   // bias corrections in double: beta2^step is 1 - O(step * 1e-3), which float would round badly
   const T step_size = T(lr / (1 - std::pow(settings.beta1, double(step))));

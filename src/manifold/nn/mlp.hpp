@@ -125,10 +125,14 @@ KOKKOS_INLINE_FUNCTION void SerialMlpForwardJacobian(const Mlp<T, MemorySpace>& 
 // Calls f(std::integral_constant<int, W>{}) with the smallest compiled register width W >= widest.
 template <class Functor>
 void dispatch_max_width(int widest, Functor&& f) {
-  if (widest <= 32) f(std::integral_constant<int, 32>{});
-  else if (widest <= 64) f(std::integral_constant<int, 64>{});
-  else if (widest <= max_width) f(std::integral_constant<int, max_width>{});
-  else throw std::invalid_argument("network wider than " + std::to_string(max_width));
+  if (widest <= 32)
+    f(std::integral_constant<int, 32>{});
+  else if (widest <= 64)
+    f(std::integral_constant<int, 64>{});
+  else if (widest <= max_width)
+    f(std::integral_constant<int, max_width>{});
+  else
+    throw std::invalid_argument("network wider than " + std::to_string(max_width));
 }
 
 template <class T, class MemorySpace>
@@ -195,7 +199,8 @@ void evaluate(const ExecutionSpace& space, const Mlp<T, MemorySpace>& mlp, const
               const CodesView<T, MemorySpace>& codes, const Kokkos::View<T***, Kokkos::LayoutRight, MemorySpace>& g) {
   const long n = long(codes.extent(0)) * long(X.extent(0));
   dispatch_max_width(mlp.layout.widest, [&](auto width) {
-    Kokkos::parallel_for("mpmrom::nn::evaluate", Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>>(space, 0, n),
+    Kokkos::parallel_for("mpmrom::nn::evaluate",
+                         Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>>(space, 0, n),
                          impl::Evaluate<decltype(width)::value, T, MemorySpace>{mlp, X, codes, g});
   });
 }
@@ -214,8 +219,8 @@ void evaluate_with_jacobians(const ExecutionSpace& space, const Mlp<T, MemorySpa
   dispatch_max_width(mlp.layout.widest, [&](auto width) {
     Kokkos::parallel_for("mpmrom::nn::evaluate_with_jacobians",
                          Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>>(space, 0, n),
-                         impl::EvaluateWithJacobians<decltype(width)::value, T, MemorySpace>{
-                             mlp, X, codes, code_rates, g, F, dgdxhat, velocity});
+                         impl::EvaluateWithJacobians<decltype(width)::value, T, MemorySpace>{mlp, X, codes, code_rates,
+                                                                                             g, F, dgdxhat, velocity});
   });
 }
 

@@ -20,7 +20,7 @@ struct TeamMlpLayout {
   int weight_offset[max_layers] = {};
   int stride[max_layers] = {};  // dims[l + 1] rounded up to an odd number
   int bias_offset[max_layers] = {};
-  int size = 0;                 // values in all
+  int size = 0;  // values in all
 
   static TeamMlpLayout make(const MlpLayout& layout) {
     TeamMlpLayout arranged;
@@ -91,15 +91,15 @@ inline int lanes_for_width(int widest) {
 // calls it at once with the same any_jacobian (the team synchronises between layers); each thread's vector lanes
 // share its point. A thread with active false evaluates nothing but takes part in the synchronisation; dgdxhat is
 // written only where it is not null (and any_jacobian is true). weights: `net.values` or a copy of them in scratch;
-// scratch: net.thread_scratch_values() values of this thread, aligned to NeuronChannels<T>; out may sit in scratch (it is
-// written by the lanes, so read it after a team barrier).
-// One function of ~100 lines: the forward pass and the reverse sweeps hand the same scratch buffers back and forth
-// (h, next, adjoint, spare) between the team's barriers; split, each half would need the other's buffer roles.
+// scratch: net.thread_scratch_values() values of this thread, aligned to NeuronChannels<T>; out may sit in scratch (it
+// is written by the lanes, so read it after a team barrier). One function of ~100 lines: the forward pass and the
+// reverse sweeps hand the same scratch buffers back and forth (h, next, adjoint, spare) between the team's barriers;
+// split, each half would need the other's buffer roles.
 template <class Member, class T, class MemorySpace>
 KOKKOS_INLINE_FUNCTION void TeamMlpKinematics(const Member& member, const TeamMlp<T, MemorySpace>& net,
-                                              const T* weights, T* scratch, bool active, const T X[3],
-                                              const T* xhat, const T* xhatdot, bool any_jacobian,
-                                              PointKinematics<T>& out, T* dgdxhat) {
+                                              const T* weights, T* scratch, bool active, const T X[3], const T* xhat,
+                                              const T* xhatdot, bool any_jacobian, PointKinematics<T>& out,
+                                              T* dgdxhat) {
   constexpr int C = kinematics_channels;
   const MlpLayout& layout = net.layout;
   const TeamMlpLayout& arranged = net.arranged;

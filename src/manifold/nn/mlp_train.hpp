@@ -1,5 +1,5 @@
-// Training kernels for the deformation map (src/manifold/nn/mlp.hpp): loss (7) of the paper and its gradient with respect
-// to every weight and every latent code, for a minibatch of (snapshot, material point) samples.
+// Training kernels for the deformation map (src/manifold/nn/mlp.hpp): loss (7) of the paper and its gradient with
+// respect to every weight and every latent code, for a minibatch of (snapshot, material point) samples.
 //
 // The minibatch goes through the network layer by layer (one kernel per layer, activations of all samples kept),
 // carrying C channels per sample: channel 0 the primal values, then, when the loss needs them, three forward tangents
@@ -85,7 +85,7 @@ struct BatchSamples {
   // Samples the loss averages over: 0 for this minibatch's own; under data-parallel training, the whole minibatch's
   // over every rank, so that the ranks' gradients sum to the whole minibatch's.
   long total_samples = 0;
-  PointsView<T, MemorySpace> X;                    // (points, 3) reference positions
+  PointsView<T, MemorySpace> X;                                  // (points, 3) reference positions
   Kokkos::View<const T***, Kokkos::LayoutRight, MemorySpace> x;  // (snapshots, points, 3) target positions
   Kokkos::View<const T***, Kokkos::LayoutRight, MemorySpace> F;  // (snapshots, points, 9) target F, row-major
   Kokkos::View<const T***, Kokkos::LayoutRight, MemorySpace> v;  // (snapshots, points, 3) target velocities
@@ -104,7 +104,8 @@ void fill_inputs(const ExecutionSpace& space, const Mlp<T, MemorySpace>& mlp, co
   const auto X = batch.X;
   const int per_snapshot = batch.samples_per_snapshot;
   Kokkos::parallel_for(
-      "mpmrom::nn::train::inputs", Kokkos::RangePolicy<ExecutionSpace>(space, 0, num_samples), KOKKOS_LAMBDA(const int b) {
+      "mpmrom::nn::train::inputs", Kokkos::RangePolicy<ExecutionSpace>(space, 0, num_samples),
+      KOKKOS_LAMBDA(const int b) {
         const int p = point(b), snap = b / per_snapshot;
         for (int c = 0; c < channels.count; ++c)
           for (int j = 0; j < 3 + r; ++j) H0(b, c, j) = T(0);
@@ -203,7 +204,7 @@ struct LossAndOutputAdjoint {
   Channels channels;
   BatchSamples<T, MemorySpace> batch;
   Activations<T, MemorySpace> Y, Ybar;
-  T wx, wF, wv;              // 1 / (components * scale^2) of each term
+  T wx, wF, wv;                       // 1 / (components * scale^2) of each term
   T adjoint_x, adjoint_F, adjoint_v;  // d(loss)/d(term sum) of each term, lambdas and 1 / samples folded in
 
   KOKKOS_INLINE_FUNCTION void init(value_type sums) const {
@@ -304,9 +305,8 @@ constexpr int weight_gradient_chunk() {
 // Layer l's weight and bias gradients, as partial sums over chunks of samples: partial(k, ...) for chunk k, at the
 // layer's offsets in the parameter array. Abar: adjoint of the layer's pre-activations; H: the layer's input.
 template <class ExecutionSpace, class T, class MemorySpace>
-void weight_gradient_partials(const ExecutionSpace& space, const MlpLayout layout, const int l,
-                              const Channels channels, const Activations<T, MemorySpace>& Abar,
-                              const Activations<T, MemorySpace>& H,
+void weight_gradient_partials(const ExecutionSpace& space, const MlpLayout layout, const int l, const Channels channels,
+                              const Activations<T, MemorySpace>& Abar, const Activations<T, MemorySpace>& H,
                               const Kokkos::View<T**, Kokkos::LayoutRight, MemorySpace>& partial) {
   const int num_samples = int(H.extent(0));
   const int chunk = weight_gradient_chunk<ExecutionSpace>();
@@ -448,8 +448,8 @@ void gather_codes(const ExecutionSpace& space, const CodeTable<T, MemorySpace> t
                   const Kokkos::View<T**, Kokkos::LayoutRight, MemorySpace>& rates) {
   const int r = table.latent_dim;
   Kokkos::parallel_for(
-      "mpmrom::nn::train::gather_codes", Kokkos::RangePolicy<ExecutionSpace>(space, 0, int(batch_snapshot.extent(0)) * r),
-      KOKKOS_LAMBDA(const int e) {
+      "mpmrom::nn::train::gather_codes",
+      Kokkos::RangePolicy<ExecutionSpace>(space, 0, int(batch_snapshot.extent(0)) * r), KOKKOS_LAMBDA(const int e) {
         const int snap = e / r, q = e % r;
         const int s = batch_snapshot(snap);
         const int o = table.code_offset;
@@ -485,11 +485,11 @@ void scatter_code_gradients(const ExecutionSpace& space, const CodeTable<T, Memo
 // Activations and adjoints of one minibatch, sized once and reused every step.
 template <class T, class MemorySpace>
 struct TrainingBuffers {
-  std::vector<Activations<T, MemorySpace>> H;  // input of layer l, (samples, channels, dims[l])
-  std::vector<Activations<T, MemorySpace>> A;  // pre-activations of layer l (A.back() is the output y)
-  Activations<T, MemorySpace> bar[2];          // adjoints, ping-pong, (samples, channels, widest)
+  std::vector<Activations<T, MemorySpace>> H;                   // input of layer l, (samples, channels, dims[l])
+  std::vector<Activations<T, MemorySpace>> A;                   // pre-activations of layer l (A.back() is the output y)
+  Activations<T, MemorySpace> bar[2];                           // adjoints, ping-pong, (samples, channels, widest)
   Kokkos::View<T**, Kokkos::LayoutRight, MemorySpace> partial;  // (chunks, network parameters)
-  Kokkos::View<T*, MemorySpace> transposed_weights;              // W_l^T of every layer (row-wise kernels only)
+  Kokkos::View<T*, MemorySpace> transposed_weights;             // W_l^T of every layer (row-wise kernels only)
   Kokkos::View<T**, Kokkos::LayoutRight, MemorySpace> codes, rates, code_grad, rate_grad;  // (batch snapshots, r)
 
   template <class ExecutionSpace>

@@ -93,8 +93,9 @@ bool load_rollout_checkpoint(const std::string& path, const std::string& identit
     bad(path, "rollout checkpoint of another format version; remove it or run without --resume");
   if (!file.has_attribute("complete") || file.integer_attribute("complete") != 1) bad(path, "incomplete checkpoint");
   if (file.string_attribute("batch") != identity)
-    bad(path, "is the checkpoint of another batch (model, scene, settings or parameters differ); remove it or run "
-              "without --resume");
+    bad(path,
+        "is the checkpoint of another batch (model, scene, settings or parameters differ); remove it or run "
+        "without --resume");
   state.frame = int(file.integer_attribute("frame"));
   state.steps = long(file.integer_attribute("steps"));
   state.step_seconds = file.double_attribute("step_seconds");

@@ -68,7 +68,7 @@ class BatchStepperBase {
   int rollouts() const { return int(outcomes_.size()); }
   int latent_dim() const { return latent_dim_; }
   int frames() const { return int(times_.size()); }  // output frames, the initial state included
-  int frame() const { return frame_; }                 // the output frame the batch is at
+  int frame() const { return frame_; }               // the output frame the batch is at
   double time() const { return times_[std::size_t(frame_)]; }
   const std::vector<double>& times() const { return times_; }
   long steps() const { return steps_; }
@@ -343,38 +343,54 @@ class BatchStepper final : public BatchStepperBase {
           .set_scratch_size(0, Kokkos::PerTeam(scratch.bytes(shape)));
     };
     const auto sample_kinematics = [&](const Matrix& xhat, const Matrix& xhatdot, const Cube& positions) {
-      Kokkos::parallel_for("mpmrom::rom::sample_kinematics", teams(long(B) * S, samples_shape_, samples_shape_.threads,
-                                                                   samples_scratch_),
-                           Samples{manifold_, samples_X_, xhat, xhatdot, positions, sample_J_, samples_shape_,
-                                   samples_scratch_});
+      Kokkos::parallel_for(
+          "mpmrom::rom::sample_kinematics",
+          teams(long(B) * S, samples_shape_, samples_shape_.threads, samples_scratch_),
+          Samples{manifold_, samples_X_, xhat, xhatdot, positions, sample_J_, samples_shape_, samples_scratch_});
     };
     if (point_method_) {
-      Kokkos::parallel_for("mpmrom::rom::point_sources",
-                           teams(long(B) * K, sources_shape_, sources_shape_.items(), sources_scratch_),
-                           PointSources{manifold_, points_X_, points_mass_, points_volume_, xhat_, xhatdot_, loads_,
-                                        material_, t, dt, apic_, sources_, sample_x_, sample_J_, flags_,
-                                        sources_shape_, sources_scratch_});
+      Kokkos::parallel_for(
+          "mpmrom::rom::point_sources", teams(long(B) * K, sources_shape_, sources_shape_.items(), sources_scratch_),
+          PointSources{manifold_, points_X_, points_mass_, points_volume_, xhat_, xhatdot_, loads_, material_, t, dt,
+                       apic_, sources_, sample_x_, sample_J_, flags_, sources_shape_, sources_scratch_});
     } else {
       sample_kinematics(xhat_, xhatdot_, sample_x_);
       Kokkos::parallel_for("mpmrom::rom::quadrature_sources", Range(space, 0, long(B) * K),
-                           rom::QuadratureSources<Manifold, MemorySpace>{
-                               manifold_, quadrature_x_, quadrature_w_, domain_, density_, newton_,
-                               settings_.inversion_fallback, xhat_, xhatdot_, loads_, material_, t, dt, apic_,
-                               reference_, converged_, sources_, failures_, step_failures_, fallbacks_, flags_});
+                           rom::QuadratureSources<Manifold, MemorySpace>{manifold_,
+                                                                         quadrature_x_,
+                                                                         quadrature_w_,
+                                                                         domain_,
+                                                                         density_,
+                                                                         newton_,
+                                                                         settings_.inversion_fallback,
+                                                                         xhat_,
+                                                                         xhatdot_,
+                                                                         loads_,
+                                                                         material_,
+                                                                         t,
+                                                                         dt,
+                                                                         apic_,
+                                                                         reference_,
+                                                                         converged_,
+                                                                         sources_,
+                                                                         failures_,
+                                                                         step_failures_,
+                                                                         fallbacks_,
+                                                                         flags_});
       Kokkos::parallel_for("mpmrom::rom::check_inversions", Range(space, 0, B),
                            rom::CheckInversions<MemorySpace>{step_failures_, max_failed_inversions_, flags_});
     }
-    const rom::GatherNodeVelocities<MemorySpace> gather{grid_, nodes_, offsets_, node_sources_, sources_, loads_, t, dt,
-                                                        node_v_, host_space ? 1 : 32};
+    const rom::GatherNodeVelocities<MemorySpace> gather{grid_,  nodes_, offsets_, node_sources_, sources_,
+                                                        loads_, t,      dt,       node_v_,       host_space ? 1 : 32};
     if (gather_across_lanes_)
       Kokkos::parallel_for("mpmrom::rom::gather_nodes", Teams(space, int((long(B) * I + 3) / 4), 4, 32), gather);
     else
       Kokkos::parallel_for("mpmrom::rom::gather_nodes", Range(space, 0, long(B) * I), gather);
     // Into a device View: only the last sub-step's speed is read (at the frame's end), so sub-steps never wait.
-    Kokkos::parallel_reduce("mpmrom::rom::g2p_samples", Range(space, 0, long(B) * S),
-                            rom::SampleVelocities<MemorySpace>{grid_, node_slot_, sample_x_, node_v_, sample_v_,
-                                                               flags_},
-                            Kokkos::Max<real_t, MemorySpace>(fastest_sample_));
+    Kokkos::parallel_reduce(
+        "mpmrom::rom::g2p_samples", Range(space, 0, long(B) * S),
+        rom::SampleVelocities<MemorySpace>{grid_, node_slot_, sample_x_, node_v_, sample_v_, flags_},
+        Kokkos::Max<real_t, MemorySpace>(fastest_sample_));
     using Projection = rom::ProjectVelocities<ExecutionSpace, MemorySpace>;
     const auto project = [&](bool first_pass) {
       Kokkos::parallel_for("mpmrom::rom::project",
@@ -458,8 +474,8 @@ std::unique_ptr<BatchStepperBase> create_stepper(const Model& model, const std::
 // batch), the ranks checkpoint at the same frames, each into its own path, and resume from the latest frame they
 // all saved.
 void record_rollouts(BatchStepperBase& stepper, RomResult& result,
-                     const std::function<void(const RomProgress&)>& progress,
-                     const RolloutCheckpoint& checkpoint = {}, const std::string& identity = "",
+                     const std::function<void(const RomProgress&)>& progress, const RolloutCheckpoint& checkpoint = {},
+                     const std::string& identity = "",
                      const parallel::Communicator& comm = parallel::Communicator::self());
 
 // A rollout checkpoint (HDF5, written atomically): the batch's state and the trajectories recorded so far

@@ -22,7 +22,8 @@ rom::RolloutLoads impl::loads_for_scene(const Scene& scene, const ReferencePoint
   if (scene.forces.size() > std::size_t(kMaxExternalForces))
     throw std::runtime_error("at most " + std::to_string(kMaxExternalForces) + " [[force]] entries are supported");
   if (scene.dirichlet.size() > std::size_t(kMaxDirichletRegions))
-    throw std::runtime_error("at most " + std::to_string(kMaxDirichletRegions) + " [[dirichlet]] entries are supported");
+    throw std::runtime_error("at most " + std::to_string(kMaxDirichletRegions) +
+                             " [[dirichlet]] entries are supported");
   for (const auto& f : scene.forces) {
     double region_mass = 0;
     for (std::size_t p = 0; p < model.mass.size(); ++p)

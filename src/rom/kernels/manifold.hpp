@@ -29,7 +29,9 @@ struct TeamFromSerial {
   int team_lanes() const { return 1; }
   TeamScratch team_scratch() const { return TeamScratch{}; }
   template <class Member>
-  KOKKOS_INLINE_FUNCTION const real_t* team_stage(const Member&, real_t*) const { return nullptr; }
+  KOKKOS_INLINE_FUNCTION const real_t* team_stage(const Member&, real_t*) const {
+    return nullptr;
+  }
   template <class Member>
   KOKKOS_INLINE_FUNCTION void team_kinematics(const Member& member, const real_t*, real_t*, bool active,
                                               const real_t X[3], const real_t* xhat, const real_t* xhatdot, bool,
@@ -81,15 +83,14 @@ struct MlpManifold {
 
   template <class Member>
   KOKKOS_INLINE_FUNCTION void team_kinematics(const Member& member, const real_t* staged, real_t* thread_scratch,
-                                              bool active, const real_t X[3], const real_t* xhat,
-                                              const real_t* xhatdot, bool any_jacobian,
-                                              nn::PointKinematics<real_t>& out, real_t* dgdxhat) const {
+                                              bool active, const real_t X[3], const real_t* xhat, const real_t* xhatdot,
+                                              bool any_jacobian, nn::PointKinematics<real_t>& out,
+                                              real_t* dgdxhat) const {
     // Host teams are one thread of one lane: the one-thread evaluation, with its buffers on the stack, is faster there
     if constexpr (host_space) {
       if (active) kinematics(X, xhat, xhatdot, out, dgdxhat);
     } else {
-      nn::TeamMlpKinematics(member, team, staged, thread_scratch, active, X, xhat, xhatdot, any_jacobian, out,
-                            dgdxhat);
+      nn::TeamMlpKinematics(member, team, staged, thread_scratch, active, X, xhat, xhatdot, any_jacobian, out, dgdxhat);
     }
   }
 };

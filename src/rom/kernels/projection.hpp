@@ -5,12 +5,13 @@
 //
 // Parallelism: one team per rollout; the team's threads take the entries of J^T J and J^T v, each a
 // parallel_reduce over the samples' rows across vector lanes; one thread then factors and solves the r x r system
-// (core/math/cholesky.hpp). Guard: the condition number is estimated from the Cholesky factor as (max L_ii / min L_ii)^2
-// (a lower bound of cond_2); above max_condition, or when the factorisation fails, the system is regularised with
-// mu I, mu = regularization * trace / r, and the rollout flagged; if that fails too, or the solution is not finite,
-// the rollout is flagged and its state left as it was, never set to NaN. With regularisation off, an ill-conditioned
-// system stops the rollout instead (flag_ill_posed). A projected latent speed |xhatdot| above max_latent_speed stops
-// it too (flag_energy): the reduced kinetic energy has left every bound the training motion sets.
+// (core/math/cholesky.hpp). Guard: the condition number is estimated from the Cholesky factor as (max L_ii / min
+// L_ii)^2 (a lower bound of cond_2); above max_condition, or when the factorisation fails, the system is regularised
+// with mu I, mu = regularization * trace / r, and the rollout flagged; if that fails too, or the solution is not
+// finite, the rollout is flagged and its state left as it was, never set to NaN. With regularisation off, an
+// ill-conditioned system stops the rollout instead (flag_ill_posed). A projected latent speed |xhatdot| above
+// max_latent_speed stops it too (flag_energy): the reduced kinetic energy has left every bound the training motion
+// sets.
 #pragma once
 
 #include "core/math/cholesky.hpp"
@@ -23,8 +24,8 @@ inline constexpr int fatal_flags = flag_inverted | flag_not_finite | flag_left_n
                                    flag_ill_posed | flag_energy | flag_inversion;
 
 struct ProjectionGuard {
-  real_t max_condition = 0;     // regularise (or, with regularize false, stop) above this condition estimate
-  real_t regularization = 0;    // mu = regularization * trace(J^T J) / r
+  real_t max_condition = 0;   // regularise (or, with regularize false, stop) above this condition estimate
+  real_t regularization = 0;  // mu = regularization * trace(J^T J) / r
   bool regularize = true;
   real_t max_latent_speed = 0;  // 0: no limit
 };
@@ -71,9 +72,9 @@ struct ProjectVelocities {
   using scratch_view = Kokkos::View<real_t*, typename ExecutionSpace::scratch_memory_space, Kokkos::MemoryUnmanaged>;
 
   int latent_dim;
-  BatchJacobians<MemorySpace> sample_J;         // (rollouts, samples, 3, r) at xhat(t_n)
-  BatchVectors<MemorySpace> sample_velocity;    // (rollouts, samples, 3) from G2P
-  BatchMatrix<MemorySpace> xhat, xhatdot;           // at t_n
+  BatchJacobians<MemorySpace> sample_J;              // (rollouts, samples, 3, r) at xhat(t_n)
+  BatchVectors<MemorySpace> sample_velocity;         // (rollouts, samples, 3) from G2P
+  BatchMatrix<MemorySpace> xhat, xhatdot;            // at t_n
   BatchMatrix<MemorySpace> xhat_next, xhatdot_next;  // the new state; a rollout that has stopped keeps the old one
   ProjectionGuard guard;
   real_t dt;
@@ -136,8 +137,8 @@ struct ProjectVelocities {
     Kokkos::single(Kokkos::PerTeam(team), [&]() {
       real_t rate[max_latent_dim];
       real_t condition = 0;
-      const int raised = SerialGuardedSolve(shared.data(), shared.data() + r * max_latent_dim, r, guard, rate,
-                                            condition);
+      const int raised =
+          SerialGuardedSolve(shared.data(), shared.data() + r * max_latent_dim, r, guard, rate, condition);
       if (condition > max_condition(b)) max_condition(b) = condition;
       if (raised & flag_ill_conditioned) ++regularized_steps(b);
       if (raised) flags(b) |= raised;

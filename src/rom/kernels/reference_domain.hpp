@@ -28,12 +28,8 @@ struct ReferenceDomain {
           inside = math::fabs(dx) <= half_extents[3 * b] && math::fabs(dy) <= half_extents[3 * b + 1] &&
                    math::fabs(dz) <= half_extents[3 * b + 2];
           break;
-        case Cylinder:
-          inside = dx * dx + dy * dy <= radius[b] * radius[b] && math::fabs(dz) <= half_height[b];
-          break;
-        case Sphere:
-          inside = dx * dx + dy * dy + dz * dz <= radius[b] * radius[b];
-          break;
+        case Cylinder: inside = dx * dx + dy * dy <= radius[b] * radius[b] && math::fabs(dz) <= half_height[b]; break;
+        case Sphere: inside = dx * dx + dy * dy + dz * dz <= radius[b] * radius[b]; break;
       }
       if (inside) return true;
     }

@@ -45,14 +45,14 @@ using BatchJacobians = Kokkos::View<real_t****, Kokkos::LayoutRight, MemorySpace
 
 // Rollout status bits, set by the kernels where a problem occurs and reported by the driver.
 enum RolloutFlag : int {
-  flag_inverted = 1,          // det F <= 0 at a material or quadrature point
-  flag_not_finite = 2,        // a NaN or Inf in the state or the projected velocity
-  flag_ill_conditioned = 4,   // the normal equations needed regularisation
-  flag_left_node_set = 8,     // a sample point's stencil left the precomputed node set
-  flag_singular = 16,         // the normal equations stayed singular after regularisation
-  flag_ill_posed = 32,        // the normal equations were ill-conditioned and regularisation was off
-  flag_energy = 64,           // the latent speed exceeded its limit (the reduced energy blew up)
-  flag_inversion = 128,       // Algorithm 2: Newton's inversion failed at too many quadrature points in one step
+  flag_inverted = 1,         // det F <= 0 at a material or quadrature point
+  flag_not_finite = 2,       // a NaN or Inf in the state or the projected velocity
+  flag_ill_conditioned = 4,  // the normal equations needed regularisation
+  flag_left_node_set = 8,    // a sample point's stencil left the precomputed node set
+  flag_singular = 16,        // the normal equations stayed singular after regularisation
+  flag_ill_posed = 32,       // the normal equations were ill-conditioned and regularisation was off
+  flag_energy = 64,          // the latent speed exceeded its limit (the reduced energy blew up)
+  flag_inversion = 128,      // Algorithm 2: Newton's inversion failed at too many quadrature points in one step
 };
 
 // Writes one source: kinematics at a point of mass m and current volume `volume`.
@@ -147,9 +147,8 @@ struct MaterialPointSources {
       const bool active = e < total;
       const int k = active ? int(e / num_rollouts) : 0, b = active ? int(e % num_rollouts) : 0;
       const real_t Xk[3] = {X(k, 0), X(k, 1), X(k, 2)};
-      manifold.team_kinematics(member, staged, own, active, Xk, &xhat(b, 0), &xhatdot(b, 0),
-                               round_first < sample_items, kinematics[item],
-                               active && k < num_samples ? &sample_J(b, k, 0, 0) : nullptr);
+      manifold.team_kinematics(member, staged, own, active, Xk, &xhat(b, 0), &xhatdot(b, 0), round_first < sample_items,
+                               kinematics[item], active && k < num_samples ? &sample_J(b, k, 0, 0) : nullptr);
     }
     member.team_barrier();
     Kokkos::parallel_for(Kokkos::TeamVectorRange(member, shape.items()), [&](const int item) {
@@ -191,7 +190,7 @@ struct QuadratureSources {
   ElasticMaterial<real_t> material;
   real_t time, dt;
   bool apic;
-  BatchVectors<MemorySpace> reference;           // (rollouts, quadrature points, 3): warm start in, inverse out
+  BatchVectors<MemorySpace> reference;                   // (rollouts, quadrature points, 3): warm start in, inverse out
   Kokkos::View<unsigned char**, MemorySpace> converged;  // (rollouts, quadrature points): reference holds a solution
   SourceView<MemorySpace> sources;
   Kokkos::View<int*, MemorySpace> failures;       // per rollout, all steps

@@ -17,8 +17,8 @@
 
 namespace mpmrom::rom {
 
-inline constexpr std::size_t team_scratch_alignment = 64;       // bytes: a block of eight channels in double
-inline constexpr std::size_t team_scratch_budget = 48 * 1024;   // bytes: what every CUDA GPU grants a block
+inline constexpr std::size_t team_scratch_alignment = 64;      // bytes: a block of eight channels in double
+inline constexpr std::size_t team_scratch_budget = 48 * 1024;  // bytes: what every CUDA GPU grants a block
 inline constexpr int kinematics_values = int(sizeof(nn::PointKinematics<real_t>) / sizeof(real_t));
 
 struct TeamShape {
@@ -46,8 +46,8 @@ struct TeamScratch {
   // This team's block, its shared part first, then its threads' parts, then the items'.
   template <class Member>
   KOKKOS_INLINE_FUNCTION real_t* base(const Member& member, const TeamShape& shape) const {
-    return static_cast<real_t*>(member.team_scratch(0).get_shmem_aligned(
-        std::size_t(values(shape)) * sizeof(real_t), team_scratch_alignment));
+    return static_cast<real_t*>(
+        member.team_scratch(0).get_shmem_aligned(std::size_t(values(shape)) * sizeof(real_t), team_scratch_alignment));
   }
   KOKKOS_INLINE_FUNCTION real_t* thread_part(real_t* base, int thread) const {
     return base + aligned_values(shared) + thread * aligned_values(per_thread);

@@ -25,8 +25,8 @@ struct NodeSums {
 // Step 3 for one (node, source) pair: source k of rollout b adds its share to node i at xi (grid indices idx) if its
 // stencil reaches the node.
 template <class MemorySpace>
-KOKKOS_INLINE_FUNCTION void add_source(const GridGeometry<real_t>& grid, const SourceView<MemorySpace>& sources,
-                                       int k, int b, const int idx[3], const Vec3<real_t>& xi, NodeSums& sums) {
+KOKKOS_INLINE_FUNCTION void add_source(const GridGeometry<real_t>& grid, const SourceView<MemorySpace>& sources, int k,
+                                       int b, const int idx[3], const Vec3<real_t>& xi, NodeSums& sums) {
   const real_t mass = sources(k, source_mass, b);
   if (!(mass > real_t(0))) return;
   const Vec3<real_t> x{{sources(k, source_x, b), sources(k, source_x + 1, b), sources(k, source_x + 2, b)}};
@@ -47,8 +47,8 @@ KOKKOS_INLINE_FUNCTION void add_source(const GridGeometry<real_t>& grid, const S
 
 // Step 4: the node's velocity from its sums, with gravity and the boundary conditions.
 template <class MemorySpace>
-KOKKOS_INLINE_FUNCTION void write_node_velocity(const GridGeometry<real_t>& grid, const RolloutLoads& load,
-                                                real_t time, real_t dt, const int idx[3], const NodeSums& sums,
+KOKKOS_INLINE_FUNCTION void write_node_velocity(const GridGeometry<real_t>& grid, const RolloutLoads& load, real_t time,
+                                                real_t dt, const int idx[3], const NodeSums& sums,
                                                 const BatchVectors<MemorySpace>& node_velocity, int b, int n) {
   Vec3<real_t> v = Vec3<real_t>::zero();
   if (sums.mass > real_t(0)) {
@@ -106,7 +106,9 @@ struct GatherNodeVelocities {
     NodeSums sums;
     Kokkos::parallel_reduce(
         Kokkos::ThreadVectorRange(member, offsets(n + 1) - first),
-        [&](const int j, NodeSums& partial) { add_source(grid, sources, node_sources(first + j), b, idx, xi, partial); },
+        [&](const int j, NodeSums& partial) {
+          add_source(grid, sources, node_sources(first + j), b, idx, xi, partial);
+        },
         sums);
     Kokkos::single(Kokkos::PerThread(member),
                    [&]() { write_node_velocity(grid, loads(b), time, dt, idx, sums, node_velocity, b, n); });

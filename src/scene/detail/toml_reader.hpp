@@ -37,7 +37,8 @@ class TableReader {
   }
   template <class Integer>
   Integer whole(double value, const std::string& what, double lo, double hi) const {
-    return impl::checked_integer<Integer>(value, [&] { return "scene " + where_ + ": " + what; }, lo, hi);
+    return impl::checked_integer<Integer>(
+        value, [&] { return "scene " + where_ + ": " + what; }, lo, hi);
   }
 
   Vec3d vec3(const std::string& key, Vec3d fallback, bool required = false);

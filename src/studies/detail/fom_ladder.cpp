@@ -46,8 +46,9 @@ json fom_ladder(const PipelineSettings& settings, const PipelineStudy& study, st
     for (double f : settings.fom_refinements) levels.push_back({f, cfl, false});
   json ladder = json::array();
   for (const auto& level : levels) {
-    const std::string name = level.reference ? "reference" : "x" + general(level.refinement) + "_cfl" +
-                                                                 general(level.cfl > 0 ? level.cfl : scene.cfl);
+    const std::string name =
+        level.reference ? "reference"
+                        : "x" + general(level.refinement) + "_cfl" + general(level.cfl > 0 ? level.cfl : scene.cfl);
     const fs::path dir = fs::path(settings.out_dir) / "fom" / name;
     fs::create_directories(dir);
     ErrorAccumulator errors;
@@ -83,8 +84,8 @@ json fom_ladder(const PipelineSettings& settings, const PipelineStudy& study, st
                   {"cost_seconds_per_simulated_second", step_seconds / simulated},
                   {"reference", level.reference}};
     if (!level.reference) entry["test_vs_reference"] = metrics_json(errors);
-    study.say("FOM " + name + ": " + std::to_string(particles) + " particles, " +
-              general(step_seconds / simulated) + " s per simulated second" +
+    study.say("FOM " + name + ": " + std::to_string(particles) + " particles, " + general(step_seconds / simulated) +
+              " s per simulated second" +
               (level.reference
                    ? " (the reference)"
                    : ", position error " + percent(entry["test_vs_reference"]["position_error"], "failed")));
@@ -130,8 +131,7 @@ json compare_fronts(const json& ladder, const std::vector<json>& configurations,
                       {"rom_below_fom", rom_better}});
   }
   json result = {{"metric", metric}, {"front", points}, {"front_points_below_fom", below}};
-  if (below > 0)
-    result["range_seconds_per_simulated_second"] = {below_lo, below_hi};
+  if (below > 0) result["range_seconds_per_simulated_second"] = {below_lo, below_hi};
   return result;
 }
 

@@ -67,7 +67,8 @@ Chart step_cost_chart(const json& report) {
   chart.x_label = "material points (FOM particles; ROM: the model's points)";
   chart.y_label = "wall seconds per step (ROM: per rollout-step)";
   chart.log_x = chart.log_y = true;
-  ChartSeries fom{"FOM, scene's cfl", {}, {}, "linespoints", {}, {}}, rom{"ROM configurations", {}, {}, "points", {}, {}};
+  ChartSeries fom{"FOM, scene's cfl", {}, {}, "linespoints", {}, {}},
+      rom{"ROM configurations", {}, {}, "points", {}, {}};
   for (const auto& level : ladder)
     if (level["cfl"] == ladder[0]["cfl"] || level["reference"].get<bool>()) {
       fom.x.push_back(level["particles"]);
@@ -98,8 +99,12 @@ Chart batch_chart(const json& report) {
   chart.x_label = "rollouts in the batch";
   chart.y_label = "rollout-steps per second";
   chart.log_x = chart.log_y = true;
-  ChartSeries series{report["device"].get<std::string>() + " (" + report["backend"].get<std::string>() + ")", {}, {},
-                     "linespoints", {}, {}};
+  ChartSeries series{report["device"].get<std::string>() + " (" + report["backend"].get<std::string>() + ")",
+                     {},
+                     {},
+                     "linespoints",
+                     {},
+                     {}};
   for (const auto& p : report["batch"]["points"]) {
     series.x.push_back(p["batch"]);
     series.y.push_back(p["rom_rollout_steps_per_s"]);

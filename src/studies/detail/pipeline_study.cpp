@@ -26,8 +26,7 @@ std::vector<std::size_t> validation_runs(const Scene& scene, int requested) {
   for (std::size_t r = 0; r < runs.size(); ++r)
     if (std::find(scene.design.test_runs.begin(), scene.design.test_runs.end(), int(r)) == scene.design.test_runs.end())
       train.push_back(r);
-  const std::size_t wanted =
-      requested >= 0 ? std::size_t(requested) : std::max<std::size_t>(1, (train.size() + 3) / 6);
+  const std::size_t wanted = requested >= 0 ? std::size_t(requested) : std::max<std::size_t>(1, (train.size() + 3) / 6);
   if (wanted >= train.size())
     throw std::runtime_error("cannot hold out " + std::to_string(wanted) + " of " + std::to_string(train.size()) +
                              " training runs for validation");
@@ -116,8 +115,8 @@ json PipelineStudy::batch_throughput(const NetworkShape& shape, const RomConfigu
   const Scene& scene = runner_.scene();
   const Model model = load_model(model_path(shape));
   RomSettings rom = rom_settings(configuration);
-  rom.end_time = settings_.batch_end_time > 0 ? settings_.batch_end_time
-                                              : 4 * scene.end_time / std::max(1, scene.num_outputs);
+  rom.end_time =
+      settings_.batch_end_time > 0 ? settings_.batch_end_time : 4 * scene.end_time / std::max(1, scene.num_outputs);
   const auto reduction = runner_.hyper_reduction(model, rom, &fit_);
   json points = json::array();
   for (int batch : settings_.batch_sizes) {
@@ -132,7 +131,9 @@ json PipelineStudy::batch_throughput(const NetworkShape& shape, const RomConfigu
                       {"rom_rollout_steps_per_s", rate}});
     say("batch " + std::to_string(batch) + ": " + general(rate) + " rollout-steps/s");
   }
-  return {{"network", shape.name()}, {"configuration", configuration.name()}, {"end_time", rom.end_time},
+  return {{"network", shape.name()},
+          {"configuration", configuration.name()},
+          {"end_time", rom.end_time},
           {"points", points}};
 }
 
@@ -178,8 +179,8 @@ Model PipelineStudy::trained(const NetworkShape& shape) {
     history.push_back(entry);
     if (p.validated || p.epoch == p.epochs)
       say("  epoch " + std::to_string(p.epoch) + "/" + std::to_string(p.epochs) + "  loss " + general(p.train.total) +
-          (p.validated ? "  validation " + general(p.validation.total) : "") + "  " +
-          general(p.seconds_left, 2) + " s left");
+          (p.validated ? "  validation " + general(p.validation.total) : "") + "  " + general(p.seconds_left, 2) +
+          " s left");
   };
   const std::string checkpoint = path + ".ckpt";
   model = train_model(fit_, training, checkpoint, fs::exists(checkpoint), callbacks);

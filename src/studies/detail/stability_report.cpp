@@ -56,9 +56,14 @@ void draw_maps(const std::string& dir, const std::vector<StabilityCase>& cases, 
   for (const auto& c : cases)
     if (c.study == "time_step") by_config[c.config].push_back(&c);
   for (const auto& [config, list] : by_config) {
-    Chart chart{"Stability map, " + scene_name + ": " + config, "time step (CFL number)",
-                "extrapolation beyond the training range (widths; -0.5 = centre)", true, false,
-                "position error (fraction)", true, {}};
+    Chart chart{"Stability map, " + scene_name + ": " + config,
+                "time step (CFL number)",
+                "extrapolation beyond the training range (widths; -0.5 = centre)",
+                true,
+                false,
+                "position error (fraction)",
+                true,
+                {}};
     ChartSeries ok{"stable / inaccurate: colour = position error", {}, {}, "points pt 5 ps 4", {}, {}};
     ChartSeries bad{"unstable (detector)", {}, {}, "points pt 2 ps 3", {}, {}};
     for (const StabilityCase* c : list) {
@@ -79,19 +84,31 @@ void draw_horizon_error(const std::string& dir, const StabilitySettings& setting
                         const std::vector<StabilityCase>& cases, const std::string& scene_name) {
   Chart growth{"Position error over time, " + scene_name + ": a horizon of " + general(settings.horizons.back()) +
                    "x the training window",
-               "time (s)", "position error (fraction)", false, true, "", false, {}};
+               "time (s)",
+               "position error (fraction)",
+               false,
+               true,
+               "",
+               false,
+               {}};
   for (const auto& c : cases)
     if (c.study == "horizon" && c.horizon == settings.horizons.back())
-      growth.series.push_back({c.config + (c.status == "unstable" ? " (stopped)" : ""), c.times,
-                               c.frame_position_errors, "lines", {}, {}});
+      growth.series.push_back(
+          {c.config + (c.status == "unstable" ? " (stopped)" : ""), c.times, c.frame_position_errors, "lines", {}, {}});
   write_chart(dir, "horizon_error", growth);
 }
 
 // Error against the number of samples.
 void draw_samples_error(const std::string& dir, const std::vector<StabilityCase>& cases, const Model& model,
                         const std::string& scene_name) {
-  Chart samples{"Position error against sample points, " + scene_name, "sample points", "position error (fraction)",
-                true, true, "", false, {}};
+  Chart samples{"Position error against sample points, " + scene_name,
+                "sample points",
+                "position error (fraction)",
+                true,
+                true,
+                "",
+                false,
+                {}};
   for (const std::string method : {"point", "node"}) {
     ChartSeries s{method == "point" ? "Algorithm 1" : "Algorithm 2", {}, {}, "linespoints", {}, {}};
     for (const auto& c : cases)
