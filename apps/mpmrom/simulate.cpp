@@ -1,9 +1,10 @@
 // mpmrom simulate (one full-order run) and mpmrom sweep (every run of the scene's design).
-#include <chrono>
 #include <iostream>
 #include <memory>
 #include <string>
 #include <vector>
+
+#include "core/timing.hpp"
 
 #include "command.hpp"
 #include "common.hpp"
@@ -55,10 +56,10 @@ void add_sweep(CLI::App& app, Commands& commands) {
          const auto& world = context.world;
          const bool quiet = context.quiet;
          // The sweep's time left from the runs simulated so far (runs kept from before take no time).
-         const auto start = std::chrono::steady_clock::now();
+         const auto start = SteadyClock::now();
          std::size_t simulated = 0;
          const auto report_run = [&](std::size_t run, std::size_t num_runs, const SweepRun& r, bool reused) {
-           const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+           const double elapsed = seconds_since(start);
            std::string left;
            // this process's runs left: every world.size()-th run from here
            const std::size_t mine_left = (num_runs - run + world.size() - 1) / world.size();

@@ -1,6 +1,6 @@
 #include "bench/bench.hpp"
 
-#include <chrono>
+#include "core/timing.hpp"
 
 namespace mpmrom {
 
@@ -10,11 +10,11 @@ FomBenchmark bench_fom(const Scene& scene, P2GStrategy strategy, const P2GTiling
   const double dt = solver.stable_time_step();
   for (long s = 0; s < warmup; ++s) solver.step(dt);
   Kokkos::fence();
-  const auto start = std::chrono::steady_clock::now();
+  const auto start = SteadyClock::now();
   for (long s = 0; s < steps; ++s) solver.step(dt);
   Kokkos::fence();
   FomBenchmark result;
-  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  result.seconds = seconds_since(start);
   result.particles = solver.num_particles();
   result.grid_nodes = solver.grid().num_nodes();
   result.steps = steps;
