@@ -87,7 +87,7 @@ PY
 fi
 row "model truncated" "$mpmrom" -q rollout truncated.h5 "$seed" --out rom.h5
 row "a snapshot given as a model" "$mpmrom" -q rollout "$corpus/snapshot.h5" "$seed" --out rom.h5
-row "model of an older mpmrom (variable-length strings)" "$mpmrom" -q rollout "$here/tests/data/legacy/model_v1.h5" "$seed" --out rom.h5
+row "model of an older mpmrom (older HDF5 layout, variable-length strings)" "$mpmrom" -q rollout "$here/tests/data/legacy/model_v1.h5" "$seed" --out rom.h5
 row "ROM file of an older mpmrom (evaluate)" "$mpmrom" -q evaluate "$corpus/legacy_rom_v1.h5" sweep
 row "upgrade: not an mpmrom file" "$mpmrom" -q upgrade text.h5
 scene_with 's/^name = .*$/name = "another_scene"/; s/^spacing = 0.05$/spacing = 0.04/' other.toml
