@@ -84,6 +84,8 @@ f["x"] = x[:, :-1, :]
 PY
   cp shape.h5 sweep/runs/run_000.h5
   row "snapshot with mismatched shapes (x one point short)" "$mpmrom" -q train sweep --out m.h5 --epochs 1
+else
+  echo "bad_inputs: python3 has no h5py: the rows 'snapshot of another format version' and 'snapshot with mismatched shapes' are left out" >&2
 fi
 row "model truncated" "$mpmrom" -q rollout truncated.h5 "$seed" --out rom.h5
 row "a snapshot given as a model" "$mpmrom" -q rollout "$corpus/snapshot.h5" "$seed" --out rom.h5
