@@ -24,7 +24,8 @@ namespace {
 struct Options {
   std::string model_path, scene_path;
   RomSettings rom_settings;
-  std::string rom_method = "point", rom_selection = "greedy", params_path, rom_path, decode_mode = "none";
+  std::string rom_method = "point", rom_selection = "greedy", rom_projection = "velocity", params_path, rom_path,
+              decode_mode = "none";
   std::vector<std::string> rom_data;
   double decode_spacing = 0;
   bool rollout_json = false;
@@ -123,6 +124,7 @@ int run(Options o, const Context& context) {
   mpmrom::require_writable_output(o.rom_path);
   o.rom_settings.method = mpmrom::rom_method_from_string(o.rom_method);
   o.rom_settings.selection = mpmrom::sample_selection_from_string(o.rom_selection);
+  o.rom_settings.projection = mpmrom::projection_scheme_from_string(o.rom_projection);
   o.rom_settings.validate();
   const mpmrom::Model model = mpmrom::load_model(o.model_path);
   const mpmrom::Scene scene = mpmrom::load_scene(o.scene_path);
@@ -213,6 +215,11 @@ void add_rollout(CLI::App& app, Commands& commands) {
                 "Algorithm 2: inversion tolerance, cells");
   add_defaulted(command, "--projection-iterations", o->rom_settings.projection_iterations,
                 "Re-projections with dg/dxhat at the trial next state (0: the paper's, at xhat(t_n))");
+  add_defaulted(command, "--projection", o->rom_projection,
+                "velocity (fit the samples' velocities and integrate) or position (also Gauss-Newton onto the "
+                "samples' updated positions in the re-projections)");
+  add_defaulted(command, "--rate-damping", o->rom_settings.rate_damping,
+                "Tikhonov weight toward the previous latent rate, relative to the normal matrix's mean eigenvalue");
   command->add_option("--max-condition", o->rom_settings.max_condition,
                       "Condition estimate of the normal equations above which they are regularised (0: 0.01/epsilon)");
   command->add_flag("!--no-regularize", o->rom_settings.regularize,

@@ -22,11 +22,16 @@ class Communicator;
 
 enum class RomMethod { MaterialPoint, SampleNode };  // Algorithm 1, Algorithm 2
 enum class SampleSelection { Region, Random, Greedy };
+// After the grid update: fit the samples' velocities in the tangent space and integrate them (the paper's), or also
+// move the latent state onto the samples' updated positions by Gauss-Newton (docs/rom.md "Projection").
+enum class ProjectionScheme { Velocity, Position };
 
 RomMethod rom_method_from_string(const std::string& name);  // "point" or "node"
 std::string to_string(RomMethod method);
 SampleSelection sample_selection_from_string(const std::string& name);  // "region", "random" or "greedy"
 std::string to_string(SampleSelection selection);
+ProjectionScheme projection_scheme_from_string(const std::string& name);  // "velocity" or "position"
+std::string to_string(ProjectionScheme scheme);
 
 struct RomSettings {
   RomMethod method = RomMethod::MaterialPoint;
@@ -41,6 +46,9 @@ struct RomSettings {
   int newton_iterations = 20;
   // Re-projections with dg/dxhat at the trial next state (0: the paper's dg/dxhat at xhat(t_n) only).
   int projection_iterations = 2;
+  ProjectionScheme projection = ProjectionScheme::Velocity;  // "position" acts in the re-projections
+  // Tikhonov weight toward the previous rate, relative to the mean eigenvalue of the weighted normal matrix (0: none).
+  double rate_damping = 0;
   double max_condition = 0;   // regularise the normal equations above this estimate (0: 0.01 / epsilon)
   double regularization = 0;  // mu = regularization * trace / r (0: 100 epsilon)
   // Safeguards and detectors (docs/stability.md).

@@ -32,6 +32,16 @@ std::string to_string(SampleSelection selection) {
   return "";
 }
 
+ProjectionScheme projection_scheme_from_string(const std::string& name) {
+  if (name == "velocity") return ProjectionScheme::Velocity;
+  if (name == "position") return ProjectionScheme::Position;
+  throw std::invalid_argument("projection must be 'velocity' or 'position', not '" + name + "'");
+}
+
+std::string to_string(ProjectionScheme scheme) {
+  return scheme == ProjectionScheme::Velocity ? "velocity" : "position";
+}
+
 nlohmann::json RomSettings::to_json() const {
   return {{"method", to_string(method)},
           {"samples", samples},
@@ -43,6 +53,8 @@ nlohmann::json RomSettings::to_json() const {
           {"newton_tolerance", newton_tolerance},
           {"newton_iterations", newton_iterations},
           {"projection_iterations", projection_iterations},
+          {"projection", to_string(projection)},
+          {"rate_damping", rate_damping},
           {"max_condition", max_condition},
           {"regularization", regularization},
           {"regularize", regularize},
@@ -61,6 +73,7 @@ void RomSettings::validate() const {
   if (!(newton_tolerance > 0)) throw std::invalid_argument("--newton-tolerance must be positive");
   if (projection_iterations < 0 || projection_iterations > 10)
     throw std::invalid_argument("--projection-iterations must be in [0, 10]");
+  if (!(rate_damping >= 0) || rate_damping > 1e6) throw std::invalid_argument("--rate-damping must be in [0, 1e6]");
   if (newton_iterations < 1) throw std::invalid_argument("--newton-iterations must be >= 1");
   if (max_condition < 0 || regularization < 0)
     throw std::invalid_argument("--max-condition and --regularization must be >= 0");

@@ -1,5 +1,6 @@
 // The reduced-order model: the network's second-order kinematics against finite differences, the guarded normal-
-// equation solve against Eigen, Newton inversion against maps with known inverses, a ROM on an exact (affine)
+// equation solve and the projection kernel (weighted, damped, Gauss-Newton on positions) against Eigen and a curved
+// manifold, Newton inversion against maps with known inverses, a ROM on an exact (affine)
 // manifold against the full-order model for both algorithms, and a batch of identical rollouts.
 #include <Eigen/Dense>
 
@@ -152,6 +153,156 @@ TEST(RomProjection, IllConditionedSystemsAreRegularisedAndFlaggedNeverNaN) {
   nan_rhs(2) = std::nan("");
   const auto not_finite = guarded_solve(A.topLeftCorner(3, 3), nan_rhs.head(3), guard);
   EXPECT_TRUE(not_finite.flags & rom::flag_not_finite);
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// One pass of the projection kernel on the default execution space, its inputs and outputs on the host.
+struct ProjectionPass {
+  int B, S, r;
+  std::vector<double> weight, J, v, x_n, x_eval;  // (S), (B, S, 3, r), (B, S, 3) x 3
+  std::vector<double> xhat, xhatdot, xhat_next;   // (B, r); xhat_next: the evaluated state
+  double damping = 0, dt = 0.01;
+
+  // Runs the kernel; returns (xhat_next, xhatdot_next) (B, r) each and the flags.
+  std::pair<std::vector<double>, std::vector<double>> run(bool first_pass, bool positions, int& flags) const {
+    using Space = Kokkos::DefaultExecutionSpace;
+    using Memory = Space::memory_space;
+    const auto upload = [](const std::vector<double>& values, auto view) {
+      auto host = Kokkos::create_mirror_view(view);
+      for (std::size_t i = 0; i < values.size(); ++i) host.data()[i] = real_t(values[i]);
+      Kokkos::deep_copy(view, host);
+      return view;
+    };
+    const auto download = [](auto view) {
+      auto host = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), view);
+      return std::vector<double>(host.data(), host.data() + host.size());
+    };
+    rom::ProjectSamples<Space, Memory> pass{r,
+                                            upload(weight, Kokkos::View<real_t*, Memory>("w", S)),
+                                            upload(J, rom::BatchJacobians<Memory>("J", B, S, 3, r)),
+                                            upload(v, rom::BatchVectors<Memory>("v", B, S, 3)),
+                                            upload(x_n, rom::BatchVectors<Memory>("x_n", B, S, 3)),
+                                            upload(x_eval, rom::BatchVectors<Memory>("x_eval", B, S, 3)),
+                                            upload(xhat, rom::BatchMatrix<Memory>("xhat", B, r)),
+                                            upload(xhatdot, rom::BatchMatrix<Memory>("xhatdot", B, r)),
+                                            upload(xhat_next, rom::BatchMatrix<Memory>("xhat_next", B, r)),
+                                            rom::BatchMatrix<Memory>("xhatdot_next", B, r),
+                                            default_guard(),
+                                            real_t(damping),
+                                            real_t(dt),
+                                            first_pass,
+                                            positions,
+                                            Kokkos::View<int*, Memory>("flags", B),
+                                            Kokkos::View<real_t*, Memory>("condition", B),
+                                            Kokkos::View<int*, Memory>("regularized", B)};
+    const int lanes = Kokkos::SpaceAccessibility<Kokkos::HostSpace, Memory>::accessible ? 1 : 32;
+    Kokkos::parallel_for(Kokkos::TeamPolicy<Space>(B, Kokkos::AUTO, lanes)
+                             .set_scratch_size(0, Kokkos::PerTeam(decltype(pass)::scratch_bytes())),
+                         pass);
+    flags = 0;
+    for (const double f : download(pass.flags)) flags |= int(f);
+    return {download(pass.xhat_next), download(pass.xhatdot_next)};
+  }
+};
+
+// Mass-weighted, damped fit and the Gauss-Newton position step against Eigen's solution of the same normal equations:
+// (A + lambda I) y = rhs, A = J^T W J, lambda = damping * trace(A) / r, rhs_rate = J^T W v + lambda xhatdot_n and
+// rhs_step = J^T W (x_n + dt v - x_eval).
+TEST(RomProjection, WeightedDampedFitAndPositionStepMatchEigen) {
+  std::mt19937 gen(5);
+  std::normal_distribution<double> normal(0, 1);
+  std::uniform_real_distribution<double> mass(0.5, 2.0);
+  ProjectionPass p{3, 7, 4};
+  const auto fill = [&](std::vector<double>& values, std::size_t n) {
+    values.resize(n);
+    for (double& value : values) value = normal(gen);
+  };
+  p.weight.resize(p.S);
+  for (double& w : p.weight) w = mass(gen);
+  fill(p.J, std::size_t(p.B * p.S * 3 * p.r));
+  fill(p.v, std::size_t(p.B * p.S * 3));
+  fill(p.x_n, p.v.size());
+  fill(p.x_eval, p.v.size());
+  fill(p.xhat, std::size_t(p.B * p.r));
+  fill(p.xhatdot, p.xhat.size());
+  fill(p.xhat_next, p.xhat.size());
+  for (const double damping : {0.0, 0.3}) {
+    p.damping = damping;
+    for (const bool positions : {false, true}) {
+      int flags = 0;
+      const auto [xhat_next, xhatdot_next] = p.run(!positions, positions, flags);
+      ASSERT_EQ(flags & rom::fatal_flags, 0);
+      for (int b = 0; b < p.B; ++b) {
+        Eigen::MatrixXd A = Eigen::MatrixXd::Zero(p.r, p.r);
+        Eigen::VectorXd rate_rhs = Eigen::VectorXd::Zero(p.r), step_rhs = rate_rhs;
+        for (int s = 0; s < p.S; ++s)
+          for (int k = 0; k < 3; ++k) {
+            const std::size_t row = std::size_t((b * p.S + s) * 3 + k);
+            const Eigen::Map<const Eigen::VectorXd> Jrow(&p.J[row * p.r], p.r);
+            A += p.weight[s] * Jrow * Jrow.transpose();
+            rate_rhs += p.weight[s] * p.v[row] * Jrow;
+            step_rhs += p.weight[s] * (p.x_n[row] + p.dt * p.v[row] - p.x_eval[row]) * Jrow;
+          }
+        const double lambda = damping * A.trace() / p.r;
+        const Eigen::Map<const Eigen::VectorXd> xhat(&p.xhat[b * p.r], p.r), xhatdot(&p.xhatdot[b * p.r], p.r),
+            evaluated(&p.xhat_next[b * p.r], p.r);
+        A.diagonal().array() += lambda;
+        const Eigen::VectorXd rate = A.llt().solve(rate_rhs + lambda * xhatdot);
+        const Eigen::VectorXd next =
+            positions ? Eigen::VectorXd(evaluated + A.llt().solve(step_rhs)) : Eigen::VectorXd(xhat + p.dt * rate);
+        // Backward-stable Cholesky (forward error <= c r eps cond |y|) on sums of 21 O(1) rows, with room for both.
+        const Eigen::JacobiSVD<Eigen::MatrixXd> svd(A);
+        const double cond = svd.singularValues()(0) / svd.singularValues()(p.r - 1);
+        const double tolerance = 100 * p.r * eps * cond;
+        for (int q = 0; q < p.r; ++q) {
+          EXPECT_NEAR(xhatdot_next[b * p.r + q], rate(q), tolerance * (1 + rate.norm())) << damping << positions;
+          EXPECT_NEAR(xhat_next[b * p.r + q], next(q), tolerance * (1 + next.norm())) << damping << positions;
+        }
+      }
+    }
+  }
+}
+
+// The position scheme's passes are Gauss-Newton on the samples' misfit: on a curved manifold (a rotation about z,
+// g(X; theta) = R(theta) X, r = 1) with targets on it, the angle converges to the targets' quadratically (a
+// zero-residual problem), where the velocity scheme's integrated rate would leave it at theta + dt * rate.
+TEST(RomProjection, PositionPassesConvergeOntoTargetsOnACurvedManifold) {
+  const double target = 0.4;
+  double theta = target + 0.3;
+  ProjectionPass p{1, 5, 1};
+  p.weight.assign(p.S, 1.0);
+  p.v.assign(std::size_t(p.S * 3), 0.0);  // targets x_n + dt v = R(target) X
+  p.xhat = {0.0};
+  p.xhatdot = {0.0};
+  const std::vector<double> X = {1, 0, 0, 0, 1, 0.2, -1, 0.5, 0, 0.3, -0.7, 1, 0.6, 0.6, -0.4};
+  // Positions R(angle) X and, if asked, their derivative along the angle (the Jacobian's one column).
+  const auto rotate = [&](double angle, std::vector<double>& x, std::vector<double>* dxdangle) {
+    const double c = std::cos(angle), s = std::sin(angle);
+    x.resize(X.size());
+    if (dxdangle) dxdangle->assign(X.size(), 0.0);
+    for (std::size_t i = 0; i < X.size(); i += 3) {
+      x[i] = c * X[i] - s * X[i + 1];
+      x[i + 1] = s * X[i] + c * X[i + 1];
+      x[i + 2] = X[i + 2];
+      if (!dxdangle) continue;
+      (*dxdangle)[i] = -s * X[i] - c * X[i + 1];
+      (*dxdangle)[i + 1] = c * X[i] - s * X[i + 1];
+    }
+  };
+  rotate(target, p.x_n, nullptr);
+  std::vector<double> errors;
+  for (int iteration = 0; iteration < 6; ++iteration) {
+    rotate(theta, p.x_eval, &p.J);
+    p.xhat_next = {theta};
+    int flags = 0;
+    theta = p.run(false, true, flags).first[0];
+    ASSERT_EQ(flags & rom::fatal_flags, 0);
+    errors.push_back(std::fabs(theta - target));
+  }
+  // Quadratic: each error at most a constant times the square of the one before (the constant, curvature over
+  // slope, is 1 for a rotation) until rounding, which leaves the angle within a few eps.
+  for (std::size_t k = 1; k < errors.size(); ++k) EXPECT_LE(errors[k], 2 * errors[k - 1] * errors[k - 1] + 10 * eps);
+  EXPECT_LE(errors.back(), 10 * eps);
 }
 
 // ---------------------------------------------------------------------------------------------------------------
@@ -341,6 +492,8 @@ const std::vector<std::pair<RomMethod, int>> kConfigurations = {{RomMethod::Mate
                                                                 {RomMethod::MaterialPoint, 16},
                                                                 {RomMethod::SampleNode, 0},
                                                                 {RomMethod::SampleNode, 16}};
+// Both projection schemes keep an exact manifold's motion: on an affine map the Gauss-Newton step is exact.
+const std::vector<ProjectionScheme> kSchemes = {ProjectionScheme::Velocity, ProjectionScheme::Position};
 
 // Free fall: the full-order model is exact here (a uniform field passes the transfers unchanged), so the ROM must
 // give the same velocities to rounding; positions may differ by the two time-step sequences, each within g t dt / 2
@@ -349,13 +502,17 @@ TEST(RomExactManifold, FreeFallMatchesTheFullOrderModel) {
   const Scene scene = affine_scene({0, 0, -9.81}, {0, 0, 0});
   const Motion fom = full_order_motion(scene);
   const double dt_max = scene.cfl * scene.dx / 0.2, t = scene.end_time;
-  for (const auto& [method, samples] : kConfigurations) {
-    const RomResult result = affine_rollouts(scene, fom, method, samples, 1);
-    ASSERT_EQ(result.outcomes[0].flags & rom::fatal_flags, 0) << result.outcomes[0].message;
-    const auto [dx, dv] = deviation(result, fom);
-    EXPECT_LE(dv, 1e3 * eps) << to_string(method) << " " << samples;  // ~100 steps of O(1) sums
-    EXPECT_LE(dx, 9.81 * t * dt_max + 1e3 * eps) << to_string(method) << " " << samples;
-  }
+  for (const auto& [method, samples] : kConfigurations)
+    for (const ProjectionScheme scheme : kSchemes) {
+      RomSettings settings;
+      settings.projection = scheme;
+      const RomResult result = affine_rollouts(scene, fom, method, samples, 1, settings);
+      ASSERT_EQ(result.outcomes[0].flags & rom::fatal_flags, 0) << result.outcomes[0].message;
+      const auto [dx, dv] = deviation(result, fom);
+      const std::string label = to_string(method) + " " + std::to_string(samples) + " " + to_string(scheme);
+      EXPECT_LE(dv, 1e3 * eps) << label;  // ~100 steps of O(1) sums
+      EXPECT_LE(dx, 9.81 * t * dt_max + 1e3 * eps) << label;
+    }
 }
 
 // A spinning, translating box: its affine motion x = X + t (v + [w]x (X - c)) must be kept exactly: APIC with
@@ -376,16 +533,20 @@ TEST(RomExactManifold, AffineMotionIsKeptExactly) {
         exact.positions[f][3 * p + i] = exact.X[3 * p + i] + t * v;
       }
   }
-  for (const auto& [method, samples] : kConfigurations) {
-    const RomResult result = affine_rollouts(scene, exact, method, samples, 1);
-    ASSERT_EQ(result.outcomes[0].flags & rom::fatal_flags, 0) << result.outcomes[0].message;
-    const auto [dx, dv] = deviation(result, exact);
-    // Rounding of the transfers and the 12 x 12 solve over a few steps (velocities O(1), positions O(0.1)), plus the
-    // stiffness the test cannot switch off: accelerations below E / (rho dx), i.e. 2.4e-9 m/s over the run.
-    const double stiffness = scene.material.youngs_modulus / (scene.material.density * scene.dx) * scene.end_time;
-    EXPECT_LE(dv, 1e4 * eps + stiffness) << to_string(method) << " " << samples;
-    EXPECT_LE(dx, 1e3 * eps + stiffness * scene.end_time) << to_string(method) << " " << samples;
-  }
+  // Rounding of the transfers and the 12 x 12 solve over a few steps (velocities O(1), positions O(0.1)), plus the
+  // stiffness the test cannot switch off: accelerations below E / (rho dx), i.e. 2.4e-9 m/s over the run.
+  const double stiffness = scene.material.youngs_modulus / (scene.material.density * scene.dx) * scene.end_time;
+  for (const auto& [method, samples] : kConfigurations)
+    for (const ProjectionScheme scheme : kSchemes) {
+      RomSettings settings;
+      settings.projection = scheme;
+      const RomResult result = affine_rollouts(scene, exact, method, samples, 1, settings);
+      ASSERT_EQ(result.outcomes[0].flags & rom::fatal_flags, 0) << result.outcomes[0].message;
+      const auto [dx, dv] = deviation(result, exact);
+      const std::string label = to_string(method) + " " + std::to_string(samples) + " " + to_string(scheme);
+      EXPECT_LE(dv, 1e4 * eps + stiffness) << label;
+      EXPECT_LE(dx, 1e3 * eps + stiffness * scene.end_time) << label;
+    }
 }
 
 TEST(RomBatch, IdenticalRolloutsGiveIdenticalResults) {

@@ -142,18 +142,21 @@ class BatchStepper final : public BatchStepperBase {
         domain_(reference_domain(scene)),
         max_failed_inversions_(int(std::floor(settings.max_failed_inversions * K_))) {
     const int r = latent_dim, B = B_, S = S_, K = K_;
-    std::vector<double> X_src, mass_src, volume_src, X_samples;
+    std::vector<double> X_src, mass_src, volume_src, X_samples, mass_samples;
     for (const int p : h.source_points) {
       X_src.insert(X_src.end(), model.X.begin() + 3 * p, model.X.begin() + 3 * p + 3);
       mass_src.push_back(model.mass[p]);
       volume_src.push_back(model.volume[p]);
     }
-    for (const int s : h.samples)
+    for (const int s : h.samples) {
       X_samples.insert(X_samples.end(), model.X.begin() + 3 * s, model.X.begin() + 3 * s + 3);
+      mass_samples.push_back(model.mass[s]);
+    }
     points_X_ = upload<Matrix>("mpmrom::rom::source_X", X_src, X_src.size() / 3, 3);
     points_mass_ = upload<Vector>("mpmrom::rom::source_mass", mass_src, mass_src.size());
     points_volume_ = upload<Vector>("mpmrom::rom::source_volume", volume_src, volume_src.size());
     samples_X_ = upload<Matrix>("mpmrom::rom::samples_X", X_samples, S, 3);
+    samples_mass_ = upload<Vector>("mpmrom::rom::samples_mass", mass_samples, S);
     quadrature_x_ = upload<Matrix>("mpmrom::rom::quadrature_x", h.quadrature_x, h.quadrature_weight.size(), 3);
     quadrature_w_ = upload<Vector>("mpmrom::rom::quadrature_w", h.quadrature_weight, h.quadrature_weight.size());
     nodes_ = upload_indices("mpmrom::rom::nodes", h.nodes);
@@ -391,17 +394,20 @@ class BatchStepper final : public BatchStepperBase {
         "mpmrom::rom::g2p_samples", Range(space, 0, long(B) * S),
         rom::SampleVelocities<MemorySpace>{grid_, node_slot_, sample_x_, node_v_, sample_v_, flags_},
         Kokkos::Max<real_t, MemorySpace>(fastest_sample_));
-    using Projection = rom::ProjectVelocities<ExecutionSpace, MemorySpace>;
+    using Projection = rom::ProjectSamples<ExecutionSpace, MemorySpace>;
+    const bool positions = settings_.projection == ProjectionScheme::Position;
     const auto project = [&](bool first_pass) {
       Kokkos::parallel_for("mpmrom::rom::project",
                            Teams(space, B, Kokkos::AUTO, projection_lanes_)
-                               .set_scratch_size(0, Kokkos::PerTeam(Projection::scratch_bytes(r))),
-                           Projection{r, sample_J_, sample_v_, xhat_, xhatdot_, xhat_next_, xhatdot_next_, guard_, dt,
-                                      first_pass, flags_, max_condition_, regularized_});
+                               .set_scratch_size(0, Kokkos::PerTeam(Projection::scratch_bytes())),
+                           Projection{r, samples_mass_, sample_J_, sample_v_, sample_x_, trial_x_, xhat_, xhatdot_,
+                                      xhat_next_, xhatdot_next_, guard_, real_t(settings_.rate_damping), dt, first_pass,
+                                      positions && !first_pass, flags_, max_condition_, regularized_});
     };
     project(true);
     // Re-project with J at the trial next state, so that the new state's own velocity field J(xhat_n+1) xhatdot
-    // reproduces the transferred velocities (with J(xhat_n) the manifold's curvature is counted twice).
+    // reproduces the transferred velocities (with J(xhat_n) the manifold's curvature is counted twice); the position
+    // scheme moves the trial state onto the samples' updated positions as it goes.
     for (int iteration = 0; iteration < settings_.projection_iterations; ++iteration) {
       sample_kinematics(xhat_next_, xhatdot_next_, trial_x_);
       project(false);
@@ -446,7 +452,7 @@ class BatchStepper final : public BatchStepperBase {
   real_t max_speed_ = 0;  // fastest sample at the end of the last frame, for the next frame's time step
 
   Matrix points_X_, samples_X_, quadrature_x_;
-  Vector points_mass_, points_volume_, quadrature_w_;
+  Vector points_mass_, points_volume_, quadrature_w_, samples_mass_;
   IndexView nodes_, offsets_, node_sources_, node_slot_;
   Kokkos::View<rom::RolloutLoads*, MemorySpace> loads_;
   Matrix xhat_, xhatdot_, xhat_next_, xhatdot_next_;

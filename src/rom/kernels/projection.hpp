@@ -1,9 +1,15 @@
-// The velocity projection (Algorithm 1 step 6, Algorithm 2 step 8): per rollout, xhatdot minimises
-// sum_s |J_s xhatdot - v_s|^2 over the sample points (J_s = dg/dxhat at X_s), through the normal equations
-// (J^T J) xhatdot = J^T v, and the next state is xhat + dt xhatdot. J_s is evaluated at the latent state the driver
-// passes: the paper's xhat(t_n), or the trial next state when the driver iterates (docs/rom.md says why).
+// The projection (Algorithm 1 step 6, Algorithm 2 step 8), per rollout, over the sample points s with weights w_s
+// (their masses) and J_s = dg/dxhat at the latent state the pass evaluates:
+//   velocity: xhatdot minimises sum_s w_s |J_s xhatdot - v_s|^2 + lambda |xhatdot - xhatdot_n|^2, the samples'
+//     transferred velocities v_s fitted in the tangent space. lambda = rate_damping * trace(J^T W J) / r (Tikhonov
+//     toward the previous rate; 0: the paper's fit) damps only directions the samples hardly see.
+//   position (the scheme "position", passes after the first): also a Gauss-Newton step for xhat minimising
+//     sum_s w_s |g(X_s; xhat) - (x_s(t_n) + dt v_s)|^2 from the evaluated state, on the same normal matrix, so that
+//     the samples land where the full-order update would put them; the velocity scheme takes xhat_n + dt xhatdot.
+// Both through the normal equations (J^T W J + lambda I) y = J^T W rhs. The first pass evaluates J at xhat(t_n);
+// further passes at the state the previous one produced (docs/rom.md says why).
 //
-// Parallelism: one team per rollout; the team's threads take the entries of J^T J and J^T v, each a
+// Parallelism: one team per rollout; the team's threads take the entries of J^T W J and the right-hand sides, each a
 // parallel_reduce over the samples' rows across vector lanes; one thread then factors and solves the r x r system
 // (core/math/cholesky.hpp). Guard: the condition number is estimated from the Cholesky factor as (max L_ii / min
 // L_ii)^2 (a lower bound of cond_2); above max_condition, or when the factorisation fails, the system is regularised
@@ -30,10 +36,12 @@ struct ProjectionGuard {
   real_t max_latent_speed = 0;  // 0: no limit
 };
 
-// Solves (A + 0) x = rhs for the r x r SPD matrix A (row-major, lda = max_latent_dim) with the guard above. Returns
-// the flags raised; condition receives the estimate of the system actually solved. Parallelism contract: one thread.
+// Solves A x = rhs for the r x r SPD matrix A (row-major, lda = max_latent_dim) and `columns` right-hand sides
+// (rhs and x: columns vectors max_latent_dim apart) with the guard above. Returns the flags raised; condition
+// receives the estimate of the system actually solved. Parallelism contract: one thread.
+
 KOKKOS_INLINE_FUNCTION int SerialGuardedSolve(const real_t* A, const real_t* rhs, int r, const ProjectionGuard& guard,
-                                              real_t* x, real_t& condition) {
+                                              real_t* x, real_t& condition, int columns = 1) {
   constexpr int lda = max_latent_dim;
   real_t L[max_latent_dim * max_latent_dim];
   real_t trace = 0;
@@ -55,10 +63,13 @@ KOKKOS_INLINE_FUNCTION int SerialGuardedSolve(const real_t* A, const real_t* rhs
     }
     if (!ok && !guard.regularize) return flags | flag_ill_conditioned | flag_ill_posed;
     if (ok) {
-      for (int i = 0; i < r; ++i) x[i] = rhs[i];
-      dense::SerialCholeskySolve(L, r, lda, x);
-      for (int i = 0; i < r; ++i)
-        if (!math::isfinite(x[i])) return flags | flag_not_finite;
+      for (int c = 0; c < columns; ++c) {
+        real_t* column = x + c * lda;
+        for (int i = 0; i < r; ++i) column[i] = rhs[c * lda + i];
+        dense::SerialCholeskySolve(L, r, lda, column);
+        for (int i = 0; i < r; ++i)
+          if (!math::isfinite(column[i])) return flags | flag_not_finite;
+      }
       return flags;
     }
     flags |= flag_ill_conditioned;
@@ -67,42 +78,58 @@ KOKKOS_INLINE_FUNCTION int SerialGuardedSolve(const real_t* A, const real_t* rhs
 }
 
 template <class ExecutionSpace, class MemorySpace>
-struct ProjectVelocities {
+struct ProjectSamples {
   using member_type = typename Kokkos::TeamPolicy<ExecutionSpace>::member_type;
   using scratch_view = Kokkos::View<real_t*, typename ExecutionSpace::scratch_memory_space, Kokkos::MemoryUnmanaged>;
+  static constexpr int lda = max_latent_dim;
 
   int latent_dim;
-  BatchJacobians<MemorySpace> sample_J;              // (rollouts, samples, 3, r) at xhat(t_n)
+  Kokkos::View<const real_t*, MemorySpace> weight;   // (samples): the samples' masses
+  BatchJacobians<MemorySpace> sample_J;              // (rollouts, samples, 3, r) at the evaluated state
   BatchVectors<MemorySpace> sample_velocity;         // (rollouts, samples, 3) from G2P
+  BatchVectors<MemorySpace> sample_x;                // (rollouts, samples, 3) at t_n
+  BatchVectors<MemorySpace> evaluated_x;             // (rollouts, samples, 3) at the evaluated state (positions pass)
   BatchMatrix<MemorySpace> xhat, xhatdot;            // at t_n
-  BatchMatrix<MemorySpace> xhat_next, xhatdot_next;  // the new state; a rollout that has stopped keeps the old one
+  BatchMatrix<MemorySpace> xhat_next, xhatdot_next;  // in: the evaluated state (later passes); out: the new state
   ProjectionGuard guard;
+  real_t rate_damping;  // Tikhonov weight toward xhatdot_n, relative to the mean eigenvalue of J^T W J
   real_t dt;
-  bool first_pass;  // a rollout that stops in a later pass keeps the state of the pass before
+  bool first_pass;         // J at xhat(t_n); a rollout that stops in a later pass keeps the state of the pass before
+  bool project_positions;  // also the Gauss-Newton step on the samples' positions (a later pass of "position")
   Kokkos::View<int*, MemorySpace> flags;
   Kokkos::View<real_t*, MemorySpace> max_condition;   // largest estimate over the rollout's steps
   Kokkos::View<int*, MemorySpace> regularized_steps;  // steps that needed regularisation
 
-  static std::size_t scratch_bytes(int r) { return scratch_view::shmem_size(r * max_latent_dim + r); }
+  static std::size_t scratch_bytes() { return scratch_view::shmem_size(lda * lda + 2 * lda); }
 
   KOKKOS_INLINE_FUNCTION void operator()(const member_type& team) const {
     const int b = team.league_rank();
-    const int r = latent_dim;
-    const auto hold = [&]() {
-      if (!first_pass) return;
-      for (int q = 0; q < r; ++q) {
-        xhat_next(b, q) = xhat(b, q);
-        xhatdot_next(b, q) = xhatdot(b, q);
-      }
-    };
     if (flags(b) & fatal_flags) {
-      Kokkos::single(Kokkos::PerTeam(team), hold);
+      Kokkos::single(Kokkos::PerTeam(team), [&]() { hold(b); });
       return;
     }
+    scratch_view shared(team.team_scratch(0), lda * lda + 2 * lda);
+    assemble(team, b, shared.data());
+    team.team_barrier();
+    Kokkos::single(Kokkos::PerTeam(team), [&]() { solve(b, shared.data()); });
+  }
+
+  // Public for nvcc: the team lambdas below may not live in private member functions.
+  KOKKOS_INLINE_FUNCTION void hold(int b) const {
+    if (!first_pass) return;
+    for (int q = 0; q < latent_dim; ++q) {
+      xhat_next(b, q) = xhat(b, q);
+      xhatdot_next(b, q) = xhatdot(b, q);
+    }
+  }
+
+  // J^T W J (row-major in shared), J^T W v (after it) and, for a positions pass, J^T W (x_n + dt v - x) (after that).
+  KOKKOS_INLINE_FUNCTION void assemble(const member_type& team, int b, real_t* shared) const {
+    const int r = latent_dim;
     const int rows = 3 * int(sample_J.extent(1));
-    scratch_view shared(team.team_scratch(0), r * max_latent_dim + r);
     const int matrix_entries = r * (r + 1) / 2;
-    Kokkos::parallel_for(Kokkos::TeamThreadRange(team, matrix_entries + r), [&](const int entry) {
+    const int entries = matrix_entries + (project_positions ? 2 * r : r);
+    Kokkos::parallel_for(Kokkos::TeamThreadRange(team, entries), [&](const int entry) {
       real_t sum = 0;
       if (entry < matrix_entries) {
         int i = 0, offset = entry;  // entry -> (i, j), j >= i, row by row of the upper triangle
@@ -115,51 +142,65 @@ struct ProjectVelocities {
             Kokkos::ThreadVectorRange(team, rows),
             [&](const int row, real_t& partial) {
               const real_t* Jrow = &sample_J(b, row / 3, row % 3, 0);
-              partial += Jrow[i] * Jrow[j];
+              partial += weight(row / 3) * Jrow[i] * Jrow[j];
             },
             sum);
         Kokkos::single(Kokkos::PerThread(team), [&]() {
-          shared(i * max_latent_dim + j) = sum;
-          shared(j * max_latent_dim + i) = sum;
+          shared[i * lda + j] = sum;
+          shared[j * lda + i] = sum;
         });
       } else {
-        const int i = entry - matrix_entries;
+        const int column = (entry - matrix_entries) / r, i = (entry - matrix_entries) % r;
         Kokkos::parallel_reduce(
             Kokkos::ThreadVectorRange(team, rows),
             [&](const int row, real_t& partial) {
-              partial += sample_J(b, row / 3, row % 3, i) * sample_velocity(b, row / 3, row % 3);
+              const int s = row / 3, k = row % 3;
+              const real_t v = sample_velocity(b, s, k);
+              const real_t target = column == 0 ? v : sample_x(b, s, k) + dt * v - evaluated_x(b, s, k);
+              partial += weight(s) * sample_J(b, s, k, i) * target;
             },
             sum);
-        Kokkos::single(Kokkos::PerThread(team), [&]() { shared(r * max_latent_dim + i) = sum; });
+        Kokkos::single(Kokkos::PerThread(team), [&]() { shared[lda * lda + column * lda + i] = sum; });
       }
     });
-    team.team_barrier();
-    Kokkos::single(Kokkos::PerTeam(team), [&]() {
-      real_t rate[max_latent_dim];
-      real_t condition = 0;
-      const int raised =
-          SerialGuardedSolve(shared.data(), shared.data() + r * max_latent_dim, r, guard, rate, condition);
-      if (condition > max_condition(b)) max_condition(b) = condition;
-      if (raised & flag_ill_conditioned) ++regularized_steps(b);
-      if (raised) flags(b) |= raised;
-      if (raised & fatal_flags) {
-        hold();
+  }
+
+  // Tikhonov term, guarded solve, detectors and the new state. One thread.
+  KOKKOS_INLINE_FUNCTION void solve(int b, real_t* shared) const {
+    const int r = latent_dim;
+    real_t* rhs = shared + lda * lda;
+    if (rate_damping > real_t(0)) {
+      real_t trace = 0;
+      for (int i = 0; i < r; ++i) trace += shared[i * lda + i];
+      const real_t lambda = rate_damping * trace / real_t(r);
+      for (int i = 0; i < r; ++i) {
+        shared[i * lda + i] += lambda;
+        rhs[i] += lambda * xhatdot(b, i);
+      }
+    }
+    real_t solution[2 * lda];  // the rate, then the position step
+    real_t condition = 0;
+    const int raised = SerialGuardedSolve(shared, rhs, r, guard, solution, condition, project_positions ? 2 : 1);
+    if (condition > max_condition(b)) max_condition(b) = condition;
+    if (raised & flag_ill_conditioned) ++regularized_steps(b);
+    if (raised) flags(b) |= raised;
+    if (raised & fatal_flags) {
+      hold(b);
+      return;
+    }
+    if (guard.max_latent_speed > real_t(0)) {
+      real_t speed2 = 0;
+      for (int q = 0; q < r; ++q) speed2 += solution[q] * solution[q];
+      if (speed2 > guard.max_latent_speed * guard.max_latent_speed) {
+        flags(b) |= flag_energy;
+        hold(b);
         return;
       }
-      if (guard.max_latent_speed > real_t(0)) {
-        real_t speed2 = 0;
-        for (int q = 0; q < r; ++q) speed2 += rate[q] * rate[q];
-        if (speed2 > guard.max_latent_speed * guard.max_latent_speed) {
-          flags(b) |= flag_energy;
-          hold();
-          return;
-        }
-      }
-      for (int q = 0; q < r; ++q) {
-        xhatdot_next(b, q) = rate[q];
-        xhat_next(b, q) = xhat(b, q) + dt * rate[q];
-      }
-    });
+    }
+    for (int q = 0; q < r; ++q) {
+      xhatdot_next(b, q) = solution[q];
+      xhat_next(b, q) = project_positions ? xhat_next(b, q) + solution[lda + q] : xhat(b, q) + dt * solution[q];
+    }
   }
 };
 
