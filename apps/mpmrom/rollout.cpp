@@ -24,8 +24,8 @@ namespace {
 struct Options {
   std::string model_path, scene_path;
   RomSettings rom_settings;
-  std::string rom_method = "point", rom_selection = "greedy", rom_projection = "velocity", params_path, rom_path,
-              decode_mode = "none";
+  std::string rom_method = "point", rom_selection = "greedy", rom_projection = "velocity", rom_weights = "mass",
+              cubature_snapshots = "reduced", params_path, rom_path, decode_mode = "none";
   std::vector<std::string> rom_data;
   double decode_spacing = 0;
   bool rollout_json = false;
@@ -73,37 +73,42 @@ void decode_rollouts(const Options& o, const mpmrom::Model& model, const mpmrom:
   }
 }
 
-// Each stopped rollout and warning on a line of its own, then (unless quiet) the batch's summary; returns the number
-// of stopped rollouts.
-int report_outcomes(const mpmrom::RomResult& result, bool quiet, const std::string& rom_path,
-                    const nlohmann::json& timing) {
-  int failed = 0;
+// What happened to a batch, summed over its rollouts: the summary line and the --json record both report it.
+struct OutcomeTotals {
+  int stopped = 0;
+  double worst_condition = 0;
+  long regularized = 0, inversion_failures = 0;
+};
+
+OutcomeTotals outcome_totals(const mpmrom::RomResult& result) {
+  OutcomeTotals totals;
+  for (const auto& o : result.outcomes) {
+    totals.stopped += o.message.empty() ? 0 : 1;
+    totals.worst_condition = std::max(totals.worst_condition, o.max_condition);
+    totals.regularized += o.regularized_steps;
+    totals.inversion_failures += o.inversion_failures;
+  }
+  return totals;
+}
+
+// Each stopped rollout and warning on a line of its own, then (unless quiet) the batch's summary.
+void report_outcomes(const mpmrom::RomResult& result, bool quiet, const std::string& rom_path,
+                     const nlohmann::json& timing) {
   for (std::size_t b = 0; b < result.outcomes.size(); ++b) {
     const auto& outcome = result.outcomes[b];
     if (!outcome.warning.empty())
       std::cerr << "mpmrom rollout: warning: rollout " << b << ": " << outcome.warning << "\n";
-    if (!outcome.message.empty()) {
-      ++failed;
-      std::cerr << "mpmrom rollout: rollout " << b << " " << outcome.message << "\n";
-    }
+    if (!outcome.message.empty()) std::cerr << "mpmrom rollout: rollout " << b << " " << outcome.message << "\n";
   }
-  if (!quiet) {
-    double worst = 0;
-    long regularized = 0, inversion = 0;
-    for (const auto& o : result.outcomes) {
-      worst = std::max(worst, o.max_condition);
-      regularized += o.regularized_steps;
-      inversion += o.inversion_failures;
-    }
-    std::fprintf(stderr,
-                 "mpmrom rollout: wrote %s: %zu rollouts x %ld steps in %.3f s (%.3g s per step, %.3g "
-                 "rollout-steps/s); largest normal-equation condition estimate %.3g, %ld regularised steps, "
-                 "%ld failed inversions\n",
-                 rom_path.c_str(), result.outcomes.size(), result.steps, result.step_seconds,
-                 timing["rom_step_seconds"].get<double>(), timing["rom_rollout_steps_per_s"].get<double>(), worst,
-                 regularized, inversion);
-  }
-  return failed;
+  if (quiet) return;
+  const OutcomeTotals totals = outcome_totals(result);
+  std::fprintf(stderr,
+               "mpmrom rollout: wrote %s: %zu rollouts x %ld steps in %.3f s (%.3g s per step, %.3g "
+               "rollout-steps/s); largest normal-equation condition estimate %.3g, %ld regularised steps, "
+               "%ld failed inversions\n",
+               rom_path.c_str(), result.outcomes.size(), result.steps, result.step_seconds,
+               timing["rom_step_seconds"].get<double>(), timing["rom_rollout_steps_per_s"].get<double>(),
+               totals.worst_condition, totals.regularized, totals.inversion_failures);
 }
 
 // Progress lines of a batch: every frame, or five a run (set_verbosity).
@@ -125,6 +130,10 @@ int run(Options o, const Context& context) {
   o.rom_settings.method = mpmrom::rom_method_from_string(o.rom_method);
   o.rom_settings.selection = mpmrom::sample_selection_from_string(o.rom_selection);
   o.rom_settings.projection = mpmrom::projection_scheme_from_string(o.rom_projection);
+  o.rom_settings.weighting = mpmrom::sample_weighting_from_string(o.rom_weights);
+  o.rom_settings.cubature_from_reduced_motion = o.cubature_snapshots == "reduced";
+  if (o.cubature_snapshots != "reduced" && o.cubature_snapshots != "full")
+    throw std::invalid_argument("--cubature-snapshots must be 'reduced' or 'full', not '" + o.cubature_snapshots + "'");
   o.rom_settings.validate();
   const mpmrom::Model model = mpmrom::load_model(o.model_path);
   const mpmrom::Scene scene = mpmrom::load_scene(o.scene_path);
@@ -133,7 +142,17 @@ int run(Options o, const Context& context) {
   mpmrom::TrainingData data;
   if (!o.rom_data.empty()) data = mpmrom::load_training_data(o.rom_data);
   const auto samples = mpmrom::select_samples(model, scene, o.rom_settings, o.rom_data.empty() ? nullptr : &data);
-  const auto reduction = mpmrom::build_hyper_reduction(model, scene, o.rom_settings, samples);
+  auto reduction = mpmrom::build_hyper_reduction(model, scene, o.rom_settings, samples);
+  if (o.rom_settings.weighting == mpmrom::SampleWeighting::Cubature) {
+    const auto fit = mpmrom::cubature_weights(
+        model, mpmrom::cubature_snapshots(scene, o.rom_settings, o.rom_data.empty() ? nullptr : &data), samples);
+    reduction.weights = fit.weights;
+    if (!quiet) {
+      std::cerr << "mpmrom rollout: cubature weights: relative misfit";
+      for (const double misfit : fit.misfits) std::cerr << " " << misfit;
+      std::cerr << " (the normal matrix, then each projected field)\n";
+    }
+  }
   if (!quiet)
     std::cerr << "mpmrom rollout: " << cases.size() << " rollout(s)"
               << (world.size() > 1 ? " over " + std::to_string(world.size()) + " processes" : std::string())
@@ -168,7 +187,8 @@ int run(Options o, const Context& context) {
   mpmrom::save_rom(o.rom_path, file);
   world.barrier();
   remove_checkpoint();
-  const int failed = report_outcomes(result, quiet, o.rom_path, file.timing);
+  report_outcomes(result, quiet, o.rom_path, file.timing);
+  const OutcomeTotals totals = outcome_totals(result);
   if (o.rollout_json) {
     auto record = mpmrom::benchmark_record("rom_rollout", scene.name);
     record["particles"] = model.num_points();
@@ -177,9 +197,13 @@ int run(Options o, const Context& context) {
     record["settings"] = file.settings;
     record["hyper_reduction"] = file.hyper_reduction;
     for (const auto& [key, value] : file.timing.items()) record[key] = value;
+    record["rollouts"] = result.outcomes.size();
+    record["stopped_rollouts"] = totals.stopped;
+    record["max_condition"] = totals.worst_condition;
+    record["regularized_steps"] = totals.regularized;
     std::cout << record.dump() << "\n";
   }
-  if (failed > 0) return 3;
+  if (totals.stopped > 0) return 3;
   return 0;
 }
 
@@ -196,8 +220,8 @@ void add_rollout(CLI::App& app, Commands& commands) {
   add_defaulted(command, "--samples", o->rom_settings.samples,
                 "Sample material points for the projection; 0: all points");
   add_defaulted(command, "--selection", o->rom_selection,
-                "Sample selection: greedy (from the model's stored ranking, or refitted to --data), region or "
-                "random");
+                "Sample selection: greedy (from the model's stored ranking, or refitted to --data), cubature "
+                "(ECSW's active set on the --data runs), region or random");
   command->add_option("--data", o->rom_data,
                       "Full-order training runs (sweep directory) to refit --selection greedy to");
   add_defaulted(command, "--seed", o->rom_settings.seed, "Seed of --selection random");
@@ -218,6 +242,11 @@ void add_rollout(CLI::App& app, Commands& commands) {
   add_defaulted(command, "--projection", o->rom_projection,
                 "velocity (fit the samples' velocities and integrate) or position (also Gauss-Newton onto the "
                 "samples' updated positions in the re-projections)");
+  add_defaulted(command, "--weights", o->rom_weights,
+                "The samples' weights in the projection: mass, or cubature (fitted to the --data training runs)");
+  add_defaulted(command, "--cubature-snapshots", o->cubature_snapshots,
+                "What the cubature fits: reduced (the all-point reduced model's projections over the scene's "
+                "training design) or full (the --data full-order runs)");
   add_defaulted(command, "--rate-damping", o->rom_settings.rate_damping,
                 "Tikhonov weight toward the previous latent rate, relative to the normal matrix's mean eigenvalue");
   command->add_option("--max-condition", o->rom_settings.max_condition,

@@ -21,17 +21,21 @@ class Communicator;
 }
 
 enum class RomMethod { MaterialPoint, SampleNode };  // Algorithm 1, Algorithm 2
-enum class SampleSelection { Region, Random, Greedy };
+enum class SampleSelection { Region, Random, Greedy, Cubature };
 // After the grid update: fit the samples' velocities in the tangent space and integrate them (the paper's), or also
 // move the latent state onto the samples' updated positions by Gauss-Newton (docs/rom.md "Projection").
 enum class ProjectionScheme { Velocity, Position };
+// The samples' weights in the projection: their masses, or empirical cubature weights fitted to the training runs.
+enum class SampleWeighting { Mass, Cubature };
 
 RomMethod rom_method_from_string(const std::string& name);  // "point" or "node"
 std::string to_string(RomMethod method);
-SampleSelection sample_selection_from_string(const std::string& name);  // "region", "random" or "greedy"
+SampleSelection sample_selection_from_string(const std::string& name);  // "region", "random", "greedy", "cubature"
 std::string to_string(SampleSelection selection);
 ProjectionScheme projection_scheme_from_string(const std::string& name);  // "velocity" or "position"
 std::string to_string(ProjectionScheme scheme);
+SampleWeighting sample_weighting_from_string(const std::string& name);  // "mass" or "cubature"
+std::string to_string(SampleWeighting weighting);
 
 struct RomSettings {
   RomMethod method = RomMethod::MaterialPoint;
@@ -49,6 +53,10 @@ struct RomSettings {
   ProjectionScheme projection = ProjectionScheme::Velocity;  // "position" acts in the re-projections
   // Tikhonov weight toward the previous rate, relative to the mean eigenvalue of the weighted normal matrix (0: none).
   double rate_damping = 0;
+  SampleWeighting weighting = SampleWeighting::Mass;
+  // Cubature (--weights and --selection cubature) fitted to the all-point reduced model's own projections over the
+  // scene's training design (true), or to the full-order training runs of --data (false).
+  bool cubature_from_reduced_motion = true;
   double max_condition = 0;   // regularise the normal equations above this estimate (0: 0.01 / epsilon)
   double regularization = 0;  // mu = regularization * trace / r (0: 100 epsilon)
   // Safeguards and detectors (docs/stability.md).
@@ -66,6 +74,8 @@ struct RomSettings {
 // The precomputed sets of a hyper-reduced model (from the training motion the model reproduces).
 struct HyperReduction {
   std::vector<int> samples;  // M: indices into the model's reference points
+  // The projection's weight of each sample (cubature_weights); empty: the samples' masses.
+  std::vector<double> weights;
   // Algorithm 1: the material points feeding the transfer, samples first (M, then the neighbours N).
   std::vector<int> source_points;
   // Algorithm 2: quadrature points (current configuration) and their volume weights.
@@ -90,6 +100,33 @@ inline constexpr std::size_t ranked_samples = 64;
 // The first `count` points of the greedy selection on the model's training runs (data), in the order chosen: its
 // first k entries are the greedy selection of k. Stored with the model by `mpmrom train` and the pipeline.
 std::vector<std::int64_t> rank_samples_greedily(const Model& model, const TrainingData& data, std::size_t count);
+
+// Empirical cubature of the projection (docs/rom.md "Sample weights"): non-negative weights w_s (units of mass) with
+// which the samples' sums of J_s^T J_s and of J_s^T (field) best reproduce the all-point sums sum_p m_p (...) over
+// snapshots, each block as a relative least-squares misfit. The snapshots (their J and fields) come from
+// - data: the full-order training runs (J at about `count` of the model's codes; fields: the runs' velocities and
+//   their accelerations by central differences of the frames), kept alive by the caller; or
+// - scene_path: the all-point reduced model (with `settings`) rolled out over at most `count` runs of the scene's
+//   training design (J of each output frame's last sub-step and the velocity that sub-step added).
+struct CubatureSnapshots {
+  const TrainingData* data = nullptr;
+  std::string scene_path;
+  RomSettings settings;
+  std::size_t count = 48;
+};
+struct CubatureFit {
+  std::vector<int> samples;
+  std::vector<double> weights;
+  std::vector<double> misfits;  // relative, per block: the normal matrix, then each field
+};
+// The snapshots settings.cubature_from_reduced_motion asks for: the reduced model on the scene (its source_path), or
+// data's training runs (throws std::invalid_argument when data is null).
+CubatureSnapshots cubature_snapshots(const Scene& scene, const RomSettings& settings, const TrainingData* data);
+// Weights for the given samples (a weight may be 0).
+CubatureFit cubature_weights(const Model& model, const CubatureSnapshots& snapshots, const std::vector<int>& samples);
+// Samples and weights together: the points Lawson and Hanson's active set takes, up to count (ECSW's selection),
+// among every point (2048 spread evenly over a larger body).
+CubatureFit cubature_selection(const Model& model, const CubatureSnapshots& snapshots, std::size_t count);
 
 // Node set, neighbours and quadrature points for the given samples, from the motion of the model's training codes.
 HyperReduction build_hyper_reduction(const Model& model, const Scene& scene, const RomSettings& settings,

@@ -118,6 +118,9 @@ void write_hyper_reduction(hdf5::File& file, const HyperReduction& sets) {
                 {sets.quadrature_weight.size(), 3});
   write_dataset(reduction, "quadrature_weight", hdf5::Element::float64, sets.quadrature_weight,
                 {sets.quadrature_weight.size()});
+  // absent: the projection weighted the samples by their masses
+  if (!sets.weights.empty())
+    write_dataset(reduction, "sample_weights", hdf5::Element::float64, sets.weights, {sets.weights.size()});
 }
 
 // The sets in /hyper_reduction (write_hyper_reduction) for the given samples.
@@ -144,6 +147,8 @@ HyperReduction read_hyper_reduction(const std::string& path, const hdf5::Group& 
       (sets.node_offsets.size() != sets.nodes.size() + 1 || sets.node_offsets.front() != 0 ||
        std::size_t(sets.node_offsets.back()) != sets.node_sources.size()))
     bad(path, "/hyper_reduction/node_offsets does not match nodes and node_sources");
+  if (reduction.has_child("sample_weights"))
+    sets.weights = impl::read_checked(path, reduction.dataset("sample_weights"), {samples.size()}, "(samples)");
   return sets;
 }
 

@@ -14,6 +14,7 @@
 #include "core/math/cholesky.hpp"
 #include "mpmrom/rom.hpp"
 #include "rom/detail/decoder.hpp"
+#include "rom/detail/training_frames.hpp"
 #include "rom/kernels/manifold.hpp"  // max_latent_dim
 
 namespace mpmrom {
@@ -96,34 +97,6 @@ std::vector<int> region_samples(const Model& model, const Scene& scene, std::siz
   return chosen;
 }
 
-// A training snapshot the greedy selection fits: a model code and the frame of its run in the training data.
-struct Frame {
-  std::size_t code, run, frame;
-};
-
-// Snapshots: model codes whose run is among the loaded training runs, about 24 spread over all of them.
-// Runs are matched by file name: the model records the paths it was trained from, which may have moved since.
-std::vector<Frame> greedy_frames(const Model& model, const TrainingData& data) {
-  const auto file_name = [](const std::string& path) { return std::filesystem::path(path).filename().string(); };
-  std::map<std::string, std::size_t> run_index;
-  for (std::size_t i = 0; i < data.train.files.size(); ++i) run_index[file_name(data.train.files[i])] = i;
-  std::vector<Frame> frames;
-  for (std::size_t c = 0; c < model.num_codes(); ++c) {
-    const auto it = run_index.find(file_name(model.runs.at(std::size_t(model.code_run[c]))));
-    if (it == run_index.end()) continue;
-    const Snapshot& run = data.train.runs[it->second];
-    for (std::size_t f = 0; f < run.num_frames; ++f)
-      if (std::fabs(run.time[f] - model.code_time[c]) <= 1e-9 * std::max(1.0, run.time.back()))
-        frames.push_back({c, it->second, f});
-  }
-  if (frames.empty())
-    throw std::runtime_error("greedy selection: none of the model's training runs is among the given --data runs");
-  std::vector<Frame> picked_frames;
-  const std::size_t stride = std::max<std::size_t>(1, frames.size() / 24);
-  for (std::size_t i = stride / 2; i < frames.size(); i += stride) picked_frames.push_back(frames[i]);
-  return picked_frames;
-}
-
 // What the greedy selection fits: at T snapshots, the Jacobians Jh (T, S, 3, r) and full-order velocities V (T, S, 3)
 // of S candidates, which are also the points whose projected velocity error is measured.
 struct GreedyFit {
@@ -133,7 +106,8 @@ struct GreedyFit {
   std::vector<double> Jh, V;
 };
 
-GreedyFit greedy_fit(const Model& model, const TrainingData& data, const std::vector<Frame>& picked_frames) {
+GreedyFit greedy_fit(const Model& model, const TrainingData& data,
+                     const std::vector<impl::TrainingFrame>& picked_frames) {
   const int r = model.latent_dim;
   const std::size_t P = model.num_points();
   const std::size_t T = picked_frames.size();
@@ -198,7 +172,7 @@ double candidate_error(const GreedyFit& fit, const std::vector<double>& A_base, 
 // space (the ROM's projection step), best reproduce the full-order velocities of about 512 points spread over the
 // body, over a spread of training snapshots. A tiny ridge keeps the first (under-determined) steps solvable.
 std::vector<int> greedy_samples(const Model& model, const TrainingData& data, std::size_t count) {
-  const GreedyFit fit = greedy_fit(model, data, greedy_frames(model, data));
+  const GreedyFit fit = greedy_fit(model, data, impl::training_frames(model, data, 24));
   const int r = fit.r;
   const std::size_t T = fit.T, S = fit.S;
   std::vector<double> A_base(T * r * r, 0.0), b_base(T * r, 0.0);
@@ -251,6 +225,8 @@ std::vector<int> select_samples(const Model& model, const Scene& scene, const Ro
       order.resize(count);
       return order;
     }
+    case SampleSelection::Cubature:
+      return cubature_selection(model, cubature_snapshots(scene, settings, data), count).samples;
     case SampleSelection::Greedy:
       if (data != nullptr && !data->train.runs.empty()) return greedy_samples(model, *data, count);
       if (model.sample_ranking.empty())

@@ -20,7 +20,8 @@ SampleSelection sample_selection_from_string(const std::string& name) {
   if (name == "region") return SampleSelection::Region;
   if (name == "random") return SampleSelection::Random;
   if (name == "greedy") return SampleSelection::Greedy;
-  throw std::invalid_argument("selection must be 'region', 'random' or 'greedy', not '" + name + "'");
+  if (name == "cubature") return SampleSelection::Cubature;
+  throw std::invalid_argument("selection must be 'region', 'random', 'greedy' or 'cubature', not '" + name + "'");
 }
 
 std::string to_string(SampleSelection selection) {
@@ -28,6 +29,7 @@ std::string to_string(SampleSelection selection) {
     case SampleSelection::Region: return "region";
     case SampleSelection::Random: return "random";
     case SampleSelection::Greedy: return "greedy";
+    case SampleSelection::Cubature: return "cubature";
   }
   return "";
 }
@@ -42,6 +44,14 @@ std::string to_string(ProjectionScheme scheme) {
   return scheme == ProjectionScheme::Velocity ? "velocity" : "position";
 }
 
+SampleWeighting sample_weighting_from_string(const std::string& name) {
+  if (name == "mass") return SampleWeighting::Mass;
+  if (name == "cubature") return SampleWeighting::Cubature;
+  throw std::invalid_argument("weights must be 'mass' or 'cubature', not '" + name + "'");
+}
+
+std::string to_string(SampleWeighting weighting) { return weighting == SampleWeighting::Mass ? "mass" : "cubature"; }
+
 nlohmann::json RomSettings::to_json() const {
   return {{"method", to_string(method)},
           {"samples", samples},
@@ -55,6 +65,8 @@ nlohmann::json RomSettings::to_json() const {
           {"projection_iterations", projection_iterations},
           {"projection", to_string(projection)},
           {"rate_damping", rate_damping},
+          {"weights", to_string(weighting)},
+          {"cubature_snapshots", cubature_from_reduced_motion ? "reduced" : "full"},
           {"max_condition", max_condition},
           {"regularization", regularization},
           {"regularize", regularize},

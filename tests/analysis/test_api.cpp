@@ -7,6 +7,8 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
+#include <numeric>
 #include <string>
 #include <vector>
 
@@ -138,6 +140,46 @@ TEST_F(RolloutBatchApi, StoredSampleRankingIsTheGreedySelection) {
     ADD_FAILURE() << "a ranking of 4 points gave " << s.samples << " samples";
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("pass --data"), std::string::npos) << e.what();
+  }
+}
+
+// Cubature (ECSW), from the full-order runs and from the reduced motion: the active set's samples carry positive
+// weights, at most as many as asked for; a larger count continues the same active-set path, so its total misfit is
+// no larger; refitting weights to the chosen samples (cubature_weights) reproduces the selection's weights, the same
+// restricted least-squares problem. With every point as a sample the masses are an exact solution, so the misfit is
+// only the normal equations' rounding and ridge.
+TEST_F(RolloutBatchApi, CubatureSelectionAndWeightsFitTheAllPointSums) {
+  const Model model = load_model(model_path());
+  const auto data = load_training_data({(dir_ / "sweep").string()});
+  const auto total = [](const CubatureFit& fit) {
+    double sum = 0;
+    for (const double m : fit.misfits) sum += m * m;
+    return std::sqrt(sum);
+  };
+  CubatureSnapshots full_order;
+  full_order.data = &data;
+  CubatureSnapshots reduced;
+  reduced.scene_path = scene_path();
+  reduced.count = 2;
+  for (const CubatureSnapshots& snapshots : {full_order, reduced}) {
+    const std::string source = snapshots.data ? "full-order runs" : "reduced motion";
+    double previous = std::numeric_limits<double>::infinity();
+    for (const std::size_t count : {3, 6, 12}) {
+      const CubatureFit fit = cubature_selection(model, snapshots, count);
+      ASSERT_FALSE(fit.samples.empty()) << source;
+      EXPECT_LE(fit.samples.size(), count) << source;
+      for (const double w : fit.weights) EXPECT_GT(w, 0.0) << source;
+      EXPECT_LE(total(fit), previous * (1 + 1e-9)) << source << " " << count;
+      previous = total(fit);
+      const CubatureFit refit = cubature_weights(model, snapshots, fit.samples);
+      ASSERT_EQ(refit.weights.size(), fit.weights.size());
+      // passive-set solves of the same small system, both with the same ridge: agreement far below 1e-6
+      for (std::size_t i = 0; i < fit.weights.size(); ++i)
+        EXPECT_NEAR(refit.weights[i], fit.weights[i], 1e-6 * fit.weights[i]) << source << " " << count;
+    }
+    std::vector<int> all(model.num_points());
+    std::iota(all.begin(), all.end(), 0);
+    EXPECT_LE(total(cubature_weights(model, snapshots, all)), 1e-4) << source;  // the ridge's 1e-12, square-rooted
   }
 }
 

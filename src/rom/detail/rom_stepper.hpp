@@ -88,6 +88,13 @@ class BatchStepperBase {
   // advancing from a restored state repeats bit for bit what the saved batch did next.
   virtual BatchState state() const = 0;
   virtual void restore(const BatchState& state) = 0;
+  // The last sub-step's projection inputs, for the cubature fitted to the reduced motion (rom/cubature.cpp): dg/dxhat
+  // at the samples as the final pass evaluated it (rollouts, samples, 3, r), the samples' transferred velocities
+  // (rollouts, samples, 3) and each rollout's rate before that sub-step (rollouts, r).
+  struct ProjectionInputs {
+    std::vector<double> J, velocity, rate_before;
+  };
+  virtual ProjectionInputs last_projection_inputs() const = 0;
   // Under MPI, ranks holding shares of one batch advance it with one time step, as one process would: combine
   // replaces each value by its maximum over the ranks (empty: this stepper holds the whole batch).
   void share_time_step(std::function<void(double*, std::size_t)> combine) { share_max_ = std::move(combine); }
@@ -142,21 +149,22 @@ class BatchStepper final : public BatchStepperBase {
         domain_(reference_domain(scene)),
         max_failed_inversions_(int(std::floor(settings.max_failed_inversions * K_))) {
     const int r = latent_dim, B = B_, S = S_, K = K_;
-    std::vector<double> X_src, mass_src, volume_src, X_samples, mass_samples;
+    std::vector<double> X_src, mass_src, volume_src, X_samples, weight_samples;
     for (const int p : h.source_points) {
       X_src.insert(X_src.end(), model.X.begin() + 3 * p, model.X.begin() + 3 * p + 3);
       mass_src.push_back(model.mass[p]);
       volume_src.push_back(model.volume[p]);
     }
-    for (const int s : h.samples) {
+    for (std::size_t i = 0; i < h.samples.size(); ++i) {
+      const int s = h.samples[i];
       X_samples.insert(X_samples.end(), model.X.begin() + 3 * s, model.X.begin() + 3 * s + 3);
-      mass_samples.push_back(model.mass[s]);
+      weight_samples.push_back(h.weights.empty() ? model.mass[s] : h.weights[i]);
     }
     points_X_ = upload<Matrix>("mpmrom::rom::source_X", X_src, X_src.size() / 3, 3);
     points_mass_ = upload<Vector>("mpmrom::rom::source_mass", mass_src, mass_src.size());
     points_volume_ = upload<Vector>("mpmrom::rom::source_volume", volume_src, volume_src.size());
     samples_X_ = upload<Matrix>("mpmrom::rom::samples_X", X_samples, S, 3);
-    samples_mass_ = upload<Vector>("mpmrom::rom::samples_mass", mass_samples, S);
+    samples_weight_ = upload<Vector>("mpmrom::rom::samples_weight", weight_samples, S);
     quadrature_x_ = upload<Matrix>("mpmrom::rom::quadrature_x", h.quadrature_x, h.quadrature_weight.size(), 3);
     quadrature_w_ = upload<Vector>("mpmrom::rom::quadrature_w", h.quadrature_weight, h.quadrature_weight.size());
     nodes_ = upload_indices("mpmrom::rom::nodes", h.nodes);
@@ -250,6 +258,10 @@ class BatchStepper final : public BatchStepperBase {
   void latent_of(int rollout, std::vector<double>& xhat, std::vector<double>& xhatdot) const override {
     xhat = download(Kokkos::subview(xhat_, rollout, Kokkos::ALL));
     xhatdot = download(Kokkos::subview(xhatdot_, rollout, Kokkos::ALL));
+  }
+
+  ProjectionInputs last_projection_inputs() const override {
+    return {download(sample_J_), download(sample_v_), download(xhatdot_next_)};  // swapped: the rate before
   }
 
   BatchState state() const override {
@@ -400,7 +412,7 @@ class BatchStepper final : public BatchStepperBase {
       Kokkos::parallel_for("mpmrom::rom::project",
                            Teams(space, B, Kokkos::AUTO, projection_lanes_)
                                .set_scratch_size(0, Kokkos::PerTeam(Projection::scratch_bytes())),
-                           Projection{r, samples_mass_, sample_J_, sample_v_, sample_x_, trial_x_, xhat_, xhatdot_,
+                           Projection{r, samples_weight_, sample_J_, sample_v_, sample_x_, trial_x_, xhat_, xhatdot_,
                                       xhat_next_, xhatdot_next_, guard_, real_t(settings_.rate_damping), dt, first_pass,
                                       positions && !first_pass, flags_, max_condition_, regularized_});
     };
@@ -452,7 +464,7 @@ class BatchStepper final : public BatchStepperBase {
   real_t max_speed_ = 0;  // fastest sample at the end of the last frame, for the next frame's time step
 
   Matrix points_X_, samples_X_, quadrature_x_;
-  Vector points_mass_, points_volume_, quadrature_w_, samples_mass_;
+  Vector points_mass_, points_volume_, quadrature_w_, samples_weight_;
   IndexView nodes_, offsets_, node_sources_, node_slot_;
   Kokkos::View<rom::RolloutLoads*, MemorySpace> loads_;
   Matrix xhat_, xhatdot_, xhat_next_, xhatdot_next_;

@@ -1,0 +1,96 @@
+// Host dense algebra: non-negative least squares (the reduced model's cubature weights) against its optimality
+// conditions and against problems with a known solution.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "core/math/nnls.hpp"
+
+namespace mpmrom::test {
+namespace {
+
+struct Problem {
+  std::size_t m, n;
+  std::vector<double> E, f, G, h;  // E (m x n) row-major; G = E^T E, h = E^T f
+};
+
+Problem random_problem(std::size_t m, std::size_t n, unsigned seed, const std::vector<double>* exact = nullptr) {
+  std::mt19937 gen(seed);
+  std::normal_distribution<double> normal(0, 1);
+  Problem p{m,
+            n,
+            std::vector<double>(m * n),
+            std::vector<double>(m),
+            std::vector<double>(n * n, 0.0),
+            std::vector<double>(n, 0.0)};
+  for (double& e : p.E) e = normal(gen);
+  for (std::size_t i = 0; i < m; ++i) {
+    p.f[i] = exact ? 0.0 : normal(gen);
+    if (exact)
+      for (std::size_t j = 0; j < n; ++j) p.f[i] += p.E[i * n + j] * (*exact)[j];
+  }
+  for (std::size_t i = 0; i < m; ++i)
+    for (std::size_t a = 0; a < n; ++a) {
+      p.h[a] += p.E[i * n + a] * p.f[i];
+      for (std::size_t b = 0; b < n; ++b) p.G[a * n + b] += p.E[i * n + a] * p.E[i * n + b];
+    }
+  return p;
+}
+
+// Karush-Kuhn-Tucker: w >= 0, the gradient h - G w vanishes where w > 0 and points outward (<= 0) where w = 0. The
+// tolerance: the passive solves' ridge (1e-12 of G's diagonal) and rounding of n-term sums, far below 1e-9 |h|.
+TEST(Nnls, SolutionsMeetTheOptimalityConditions) {
+  for (unsigned seed = 1; seed <= 20; ++seed) {
+    const Problem p = random_problem(30, 12, seed);
+    const std::vector<double> w = dense::nnls_normal(p.G, p.h, p.n);
+    double scale = 0;
+    for (const double x : p.h) scale = std::max(scale, std::fabs(x));
+    int positive = 0;
+    for (std::size_t i = 0; i < p.n; ++i) {
+      ASSERT_GE(w[i], 0.0);
+      double gradient = p.h[i];
+      for (std::size_t j = 0; j < p.n; ++j) gradient -= p.G[i * p.n + j] * w[j];
+      if (w[i] > 0) {
+        ++positive;
+        EXPECT_NEAR(gradient, 0.0, 1e-9 * scale) << "seed " << seed << " unknown " << i;
+      } else {
+        EXPECT_LE(gradient, 1e-9 * scale) << "seed " << seed << " unknown " << i;
+      }
+    }
+    EXPECT_GT(positive, 0);  // random f has a descent direction into the positive orthant
+  }
+}
+
+// A consistent system with a non-negative solution (some entries 0) and full column rank: the minimiser is that
+// solution, found to the conditioning of the normal equations (cond(E)^2 of a 40 x 10 Gaussian E, below 1e2).
+TEST(Nnls, ConsistentSystemGivesItsNonNegativeSolution) {
+  const std::vector<double> exact = {0.5, 0, 2, 0, 0.1, 3, 0, 1, 0.7, 0};
+  const Problem p = random_problem(40, exact.size(), 3, &exact);
+  const std::vector<double> w = dense::nnls_normal(p.G, p.h, p.n);
+  for (std::size_t i = 0; i < p.n; ++i) EXPECT_NEAR(w[i], exact[i], 1e-8) << i;
+}
+
+// A cap on the positive unknowns stops the active set there; each larger cap continues the same path, so the
+// objective never rises.
+TEST(Nnls, CapOnPositiveUnknownsIsRespectedAndObjectiveFallsWithIt) {
+  const Problem p = random_problem(60, 40, 9);
+  double previous = std::numeric_limits<double>::infinity();
+  for (const std::size_t cap : {1, 2, 4, 8, 16}) {
+    const std::vector<double> w = dense::nnls_normal(p.G, p.h, p.n, cap);
+    EXPECT_LE(std::size_t(std::count_if(w.begin(), w.end(), [](double x) { return x > 0; })), cap);
+    double objective = 0;  // |E w - f|^2
+    for (std::size_t i = 0; i < p.m; ++i) {
+      double e = -p.f[i];
+      for (std::size_t j = 0; j < p.n; ++j) e += p.E[i * p.n + j] * w[j];
+      objective += e * e;
+    }
+    EXPECT_LE(objective, previous * (1 + 1e-12)) << cap;
+    previous = objective;
+  }
+}
+
+}  // namespace
+}  // namespace mpmrom::test
