@@ -122,6 +122,33 @@ std::function<void(const mpmrom::RomProgress&)> rollout_progress(bool quiet, std
   };
 }
 
+// The samples (--selection), their sets and their weights (--weights). Cubature selection fits the weights as it
+// chooses: they are reused rather than fitted again.
+mpmrom::HyperReduction hyper_reduction(const Options& o, const mpmrom::Model& model, const mpmrom::Scene& scene,
+                                       const mpmrom::TrainingData& data, bool quiet) {
+  const mpmrom::TrainingData* training = o.rom_data.empty() ? nullptr : &data;
+  mpmrom::CubatureFit selected;
+  if (o.rom_settings.selection == mpmrom::SampleSelection::Cubature && o.rom_settings.samples > 0)
+    selected = mpmrom::cubature_selection(model, mpmrom::cubature_snapshots(scene, o.rom_settings, training),
+                                          std::size_t(o.rom_settings.samples));
+  const auto samples =
+      selected.samples.empty() ? mpmrom::select_samples(model, scene, o.rom_settings, training) : selected.samples;
+  auto reduction = mpmrom::build_hyper_reduction(model, scene, o.rom_settings, samples);
+  if (o.rom_settings.weighting == mpmrom::SampleWeighting::Cubature) {
+    const auto fit =
+        selected.samples.empty()
+            ? mpmrom::cubature_weights(model, mpmrom::cubature_snapshots(scene, o.rom_settings, training), samples)
+            : selected;
+    reduction.weights = fit.weights;
+    if (!quiet) {
+      std::cerr << "mpmrom rollout: cubature weights: relative misfit";
+      for (const double misfit : fit.misfits) std::cerr << " " << misfit;
+      std::cerr << " (the normal matrix, then each projected field)\n";
+    }
+  }
+  return reduction;
+}
+
 // o is a copy: the run completes its settings.
 int run(Options o, const Context& context) {
   const bool quiet = context.quiet;
@@ -141,18 +168,7 @@ int run(Options o, const Context& context) {
   const auto cases = rollout_cases(scene, o.params_path, names);
   mpmrom::TrainingData data;
   if (!o.rom_data.empty()) data = mpmrom::load_training_data(o.rom_data);
-  const auto samples = mpmrom::select_samples(model, scene, o.rom_settings, o.rom_data.empty() ? nullptr : &data);
-  auto reduction = mpmrom::build_hyper_reduction(model, scene, o.rom_settings, samples);
-  if (o.rom_settings.weighting == mpmrom::SampleWeighting::Cubature) {
-    const auto fit = mpmrom::cubature_weights(
-        model, mpmrom::cubature_snapshots(scene, o.rom_settings, o.rom_data.empty() ? nullptr : &data), samples);
-    reduction.weights = fit.weights;
-    if (!quiet) {
-      std::cerr << "mpmrom rollout: cubature weights: relative misfit";
-      for (const double misfit : fit.misfits) std::cerr << " " << misfit;
-      std::cerr << " (the normal matrix, then each projected field)\n";
-    }
-  }
+  const auto reduction = hyper_reduction(o, model, scene, data, quiet);
   if (!quiet)
     std::cerr << "mpmrom rollout: " << cases.size() << " rollout(s)"
               << (world.size() > 1 ? " over " + std::to_string(world.size()) + " processes" : std::string())
