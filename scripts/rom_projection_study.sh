@@ -2,7 +2,8 @@
 # The reduced model's projection variants side by side (docs/results/rom/): each configuration rolled out over a
 # sweep's runs in one batch and evaluated against their full-order runs (SPEC.md's metrics, train and test apart).
 # Writes OUT_DIR/<name>.json per configuration (the rollout's flags, errors by split, stopped rollouts, condition,
-# seconds per simulated second per rollout) and prints a markdown table on stdout.
+# seconds per simulated second per rollout) and prints a markdown table on stdout; the ROM files go to
+# WORK_DIR (default out/rom_projection_study), not beside the records.
 # Usage: scripts/rom_projection_study.sh DATA_DIR MODEL SCENE OUT_DIR [BUILD_DIR]
 #   DATA_DIR: the sweep (design.csv and runs/); SPLIT=test rolls out only its test runs (default: every run).
 #   CONFIGS: "name|flags;name|flags;..." (default: the projection schemes and damping weights below).
@@ -12,9 +13,10 @@ usage="usage: rom_projection_study.sh DATA_DIR MODEL SCENE OUT_DIR [BUILD_DIR]"
 data=${1:?$usage}; model=${2:?$usage}; scene=${3:?$usage}; out=${4:?$usage}
 mpmrom=${5:-$here/build/double}/apps/mpmrom
 [ -f "$data/design.csv" ] || { echo "rom_projection_study: error: no $data/design.csv" >&2; exit 1; }
-mkdir -p "$out"
+work=${WORK_DIR:-$here/out/rom_projection_study}
+mkdir -p "$out" "$work"
 # The rollouts' parameter values: every design column before split, the rows of SPLIT (all when unset).
-python3 - "$data/design.csv" "$out/params.csv" "${SPLIT:-}" <<'PY'
+python3 - "$data/design.csv" "$work/params.csv" "${SPLIT:-}" <<'PY'
 import csv, sys
 rows = list(csv.DictReader(open(sys.argv[1])))
 names = [k for k in rows[0] if k not in ("split", "file")]
@@ -32,21 +34,24 @@ export OMP_PROC_BIND=${OMP_PROC_BIND:-spread} OMP_PLACES=${OMP_PLACES:-threads}
 for entry in "${configurations[@]}"; do
   name=${entry%%|*}
   read -r -a flags <<< "${entry#*|}"
-  file="$out/$(tr ' ' '_' <<< "$name")"
+  stem=$(tr ' ' '_' <<< "$name")
+  file="$work/$stem"
   echo "rom_projection_study: $name: ${flags[*]}" >&2
   status=0
-  "$mpmrom" -q rollout "$model" "$scene" --out "$file.h5" --params "$out/params.csv" "${flags[@]}" --json \
+  "$mpmrom" -q rollout "$model" "$scene" --out "$file.h5" --params "$work/params.csv" "${flags[@]}" --json \
     > "$file.rollout.json" || status=$?
   # exit 3: some rollouts stopped; they are counted, not fatal to the study
   [ "$status" -eq 0 ] || [ "$status" -eq 3 ] || { echo "rom_projection_study: error: $name: exit $status" >&2; exit 1; }
   "$mpmrom" -q evaluate "$file.h5" "$data" --json > "$file.errors.json"
-  python3 - "$file" "$name" "${flags[*]}" "$model" "$(git -C "$here" rev-parse --short HEAD)" <<'PY'
+  python3 - "$file" "$out/$stem.json" "$name" "${flags[*]}" "$model" "$(git -C "$here" rev-parse --short HEAD)" \
+    "${SPLIT:-all}" <<'PY'
 import json, sys
-file, name, flags, model, commit = sys.argv[1:6]
+file, record_path, name, flags, model, commit, split = sys.argv[1:8]
 rollout = json.load(open(file + ".rollout.json"))
 errors = json.load(open(file + ".errors.json"))
-record = {"name": name, "flags": flags, "model": model, "commit": commit, "errors": errors, "rollout": rollout}
-json.dump(record, open(file + ".json", "w"), indent=1)
+record = {"name": name, "flags": flags, "model": model, "commit": commit, "runs": split, "errors": errors,
+          "rollout": rollout}
+json.dump(record, open(record_path, "w"), indent=1)
 PY
   rm -f "$file.rollout.json" "$file.errors.json"
 done
@@ -61,7 +66,7 @@ for entry in entries:
     roll = r["rollout"]
     for split in ("train", "test"):
         e = r["errors"].get(split)
-        if not e:
+        if not e or r["runs"] not in ("all", split):
             continue
         cells = [f"{100 * e[m]:.3g} %" for m in ("position_error", "displacement_error", "velocity_error", "F_error")]
         print(f"| {name} | {split} | " + " | ".join(cells) +
