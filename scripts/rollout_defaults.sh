@@ -9,6 +9,7 @@ set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 dir=${1:-$here/out/poke_pipeline}
 mpmrom=${2:-$here/build/double}/apps/mpmrom
+source "$here/scripts/lib/rom_configuration.sh"
 [ -f "$dir/data/design.csv" ] || { echo "rollout_defaults: error: no $dir/data/design.csv (run scripts/main.sh)" >&2; exit 1; }
 model=$(ls "$dir"/models/*.h5 | head -n 1)
 # the scene the pipeline ran (report.json names it), from scenes/ unless SCENE=FILE says otherwise
@@ -44,11 +45,7 @@ for entry in "${configurations[@]}"; do
   read -r -a flags <<< "${entry#*|}"
   file="$work/$(tr ' ' '_' <<< "$name")"
   echo "rollout_defaults: $name ${flags[*]}" >&2
-  status=0
-  "$mpmrom" -q rollout "$model" "$scene" --out "$file.h5" --params "$work/test.csv" "${flags[@]}" --json \
-    > "$file.rollout.json" || status=$?
-  [ "$status" -eq 0 ] || [ "$status" -eq 3 ] || { echo "rollout_defaults: error: $name: exit $status" >&2; exit 1; }
-  "$mpmrom" -q evaluate "$file.h5" "$dir/data" --json > "$file.errors.json"
+  rom_configuration rollout_defaults "$mpmrom" "$model" "$scene" "$work/test.csv" "$dir/data" "$file" "${flags[@]}"
 done
 python3 - "$work" "$model" "${configurations[@]}" <<'PY'
 import json, os, sys

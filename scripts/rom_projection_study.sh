@@ -12,6 +12,7 @@ here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 usage="usage: rom_projection_study.sh DATA_DIR MODEL SCENE OUT_DIR [BUILD_DIR]"
 data=${1:?$usage}; model=${2:?$usage}; scene=${3:?$usage}; out=${4:?$usage}
 mpmrom=${5:-$here/build/double}/apps/mpmrom
+source "$here/scripts/lib/rom_configuration.sh"
 [ -f "$data/design.csv" ] || { echo "rom_projection_study: error: no $data/design.csv" >&2; exit 1; }
 work=${WORK_DIR:-$here/out/rom_projection_study}
 mkdir -p "$out" "$work"
@@ -37,12 +38,7 @@ for entry in "${configurations[@]}"; do
   stem=$(tr ' ' '_' <<< "$name")
   file="$work/$stem"
   echo "rom_projection_study: $name: ${flags[*]}" >&2
-  status=0
-  "$mpmrom" -q rollout "$model" "$scene" --out "$file.h5" --params "$work/params.csv" "${flags[@]}" --json \
-    > "$file.rollout.json" || status=$?
-  # exit 3: some rollouts stopped; they are counted, not fatal to the study
-  [ "$status" -eq 0 ] || [ "$status" -eq 3 ] || { echo "rom_projection_study: error: $name: exit $status" >&2; exit 1; }
-  "$mpmrom" -q evaluate "$file.h5" "$data" --json > "$file.errors.json"
+  rom_configuration rom_projection_study "$mpmrom" "$model" "$scene" "$work/params.csv" "$data" "$file" "${flags[@]}"
   python3 - "$file" "$out/$stem.json" "$name" "${flags[*]}" "$model" "$(git -C "$here" rev-parse --short HEAD)" \
     "${SPLIT:-all}" <<'PY'
 import json, sys

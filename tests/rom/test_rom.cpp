@@ -259,6 +259,22 @@ const std::vector<std::pair<RomMethod, int>> kConfigurations = {{RomMethod::Mate
 // Both projection schemes keep an exact manifold's motion: on an affine map the Gauss-Newton step is exact.
 const std::vector<ProjectionScheme> kSchemes = {ProjectionScheme::Velocity, ProjectionScheme::Position};
 
+// Rolls the scene out in every configuration with both projection schemes; check(label, dx, dv) judges each
+// rollout's largest deviations from the motion.
+template <class Check>
+void check_every_configuration(const Scene& scene, const Motion& motion, Check check) {
+  for (const auto& [method, samples] : kConfigurations)
+    for (const ProjectionScheme scheme : kSchemes) {
+      RomSettings settings;
+      settings.projection = scheme;
+      const RomResult result = affine_rollouts(scene, motion, method, samples, 1, settings);
+      const std::string label = to_string(method) + " " + std::to_string(samples) + " " + to_string(scheme);
+      ASSERT_EQ(result.outcomes[0].flags & rom::fatal_flags, 0) << label << ": " << result.outcomes[0].message;
+      const auto [dx, dv] = deviation(result, motion);
+      check(label, dx, dv);
+    }
+}
+
 // Free fall: the full-order model is exact here (a uniform field passes the transfers unchanged), so the ROM must
 // give the same velocities to rounding; positions may differ by the two time-step sequences, each within g t dt / 2
 // of the parabola.
@@ -266,17 +282,10 @@ TEST(RomExactManifold, FreeFallMatchesTheFullOrderModel) {
   const Scene scene = affine_scene({0, 0, -9.81}, {0, 0, 0});
   const Motion fom = full_order_motion(scene);
   const double dt_max = scene.cfl * scene.dx / 0.2, t = scene.end_time;
-  for (const auto& [method, samples] : kConfigurations)
-    for (const ProjectionScheme scheme : kSchemes) {
-      RomSettings settings;
-      settings.projection = scheme;
-      const RomResult result = affine_rollouts(scene, fom, method, samples, 1, settings);
-      ASSERT_EQ(result.outcomes[0].flags & rom::fatal_flags, 0) << result.outcomes[0].message;
-      const auto [dx, dv] = deviation(result, fom);
-      const std::string label = to_string(method) + " " + std::to_string(samples) + " " + to_string(scheme);
-      EXPECT_LE(dv, 1e3 * eps) << label;  // ~100 steps of O(1) sums
-      EXPECT_LE(dx, 9.81 * t * dt_max + 1e3 * eps) << label;
-    }
+  check_every_configuration(scene, fom, [&](const std::string& label, double dx, double dv) {
+    EXPECT_LE(dv, 1e3 * eps) << label;  // ~100 steps of O(1) sums
+    EXPECT_LE(dx, 9.81 * t * dt_max + 1e3 * eps) << label;
+  });
 }
 
 // A spinning, translating box: its affine motion x = X + t (v + [w]x (X - c)) must be kept exactly: APIC with
@@ -300,17 +309,10 @@ TEST(RomExactManifold, AffineMotionIsKeptExactly) {
   // Rounding of the transfers and the 12 x 12 solve over a few steps (velocities O(1), positions O(0.1)), plus the
   // stiffness the test cannot switch off: accelerations below E / (rho dx), i.e. 2.4e-9 m/s over the run.
   const double stiffness = scene.material.youngs_modulus / (scene.material.density * scene.dx) * scene.end_time;
-  for (const auto& [method, samples] : kConfigurations)
-    for (const ProjectionScheme scheme : kSchemes) {
-      RomSettings settings;
-      settings.projection = scheme;
-      const RomResult result = affine_rollouts(scene, exact, method, samples, 1, settings);
-      ASSERT_EQ(result.outcomes[0].flags & rom::fatal_flags, 0) << result.outcomes[0].message;
-      const auto [dx, dv] = deviation(result, exact);
-      const std::string label = to_string(method) + " " + std::to_string(samples) + " " + to_string(scheme);
-      EXPECT_LE(dv, 1e4 * eps + stiffness) << label;
-      EXPECT_LE(dx, 1e3 * eps + stiffness * scene.end_time) << label;
-    }
+  check_every_configuration(scene, exact, [&](const std::string& label, double dx, double dv) {
+    EXPECT_LE(dv, 1e4 * eps + stiffness) << label;
+    EXPECT_LE(dx, 1e3 * eps + stiffness * scene.end_time) << label;
+  });
 }
 
 TEST(RomBatch, IdenticalRolloutsGiveIdenticalResults) {

@@ -1,0 +1,13 @@
+# Sourced by the reduced-model studies (rollout_defaults.sh, rom_projection_study.sh): one configuration rolled out
+# over a parameter file and evaluated against the full-order runs.
+# rom_configuration SCRIPT MPMROM MODEL SCENE PARAMS DATA FILE [FLAGS...]: writes FILE.h5, FILE.rollout.json (the
+# rollout's --json record) and FILE.errors.json (evaluate --json); a batch in which some rollouts stopped (exit 3)
+# is a result, any other failure ends the calling script with one line naming SCRIPT.
+rom_configuration() {
+  local script=$1 mpmrom=$2 model=$3 scene=$4 params=$5 data=$6 file=$7 status=0
+  shift 7
+  "$mpmrom" -q rollout "$model" "$scene" --out "$file.h5" --params "$params" "$@" --json > "$file.rollout.json" ||
+    status=$?
+  [ "$status" -eq 0 ] || [ "$status" -eq 3 ] || { echo "$script: error: rollout $* exited $status" >&2; exit 1; }
+  "$mpmrom" -q evaluate "$file.h5" "$data" --json > "$file.errors.json"
+}
