@@ -1,11 +1,8 @@
 // Which material points the reduced model samples: spread over the regions of the scene (region), at random (random),
 // or greedily by the error of the projected training velocities (greedy).
 #include <algorithm>
-#include <cmath>
 #include <cstdint>
-#include <filesystem>
 #include <limits>
-#include <map>
 #include <numeric>
 #include <stdexcept>
 #include <string>
