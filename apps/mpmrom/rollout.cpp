@@ -232,7 +232,8 @@ void add_rollout(CLI::App& app, Commands& commands) {
   add_input(command, "scene", o->scene_path, "Scene file (TOML) the model was trained on");
   command->add_option("--out", o->rom_path, "ROM file to write (HDF5)")->required();
   add_defaulted(command, "--method", o->rom_method,
-                "point (Algorithm 1, material-point-centric) or node (Algorithm 2)");
+                "point (Algorithm 1, material-point-centric), node (Algorithm 2) or galerkin (the reduced equations of "
+                "motion by cubature over the samples, no grid)");
   add_defaulted(command, "--samples", o->rom_settings.samples,
                 "Sample material points for the projection; 0: all points");
   add_defaulted(command, "--selection", o->rom_selection,

@@ -20,7 +20,8 @@ namespace parallel {
 class Communicator;
 }
 
-enum class RomMethod { MaterialPoint, SampleNode };  // Algorithm 1, Algorithm 2
+// Algorithm 1, Algorithm 2, and the reduced equations of motion by cubature without a grid (docs/rom.md "Galerkin").
+enum class RomMethod { MaterialPoint, SampleNode, Galerkin };
 enum class SampleSelection { Region, Random, Greedy, Cubature };
 // After the grid update: fit the samples' velocities in the tangent space and integrate them (the paper's), or also
 // move the latent state onto the samples' updated positions by Gauss-Newton (docs/rom.md "Projection").
@@ -28,7 +29,7 @@ enum class ProjectionScheme { Velocity, Position };
 // The samples' weights in the projection: their masses, or empirical cubature weights fitted to the training runs.
 enum class SampleWeighting { Mass, Cubature };
 
-RomMethod rom_method_from_string(const std::string& name);  // "point" or "node"
+RomMethod rom_method_from_string(const std::string& name);  // "point", "node" or "galerkin"
 std::string to_string(RomMethod method);
 SampleSelection sample_selection_from_string(const std::string& name);  // "region", "random", "greedy", "cubature"
 std::string to_string(SampleSelection selection);

@@ -168,6 +168,7 @@ nlohmann::json evaluate_rom(const RomFile& rom, const Model& model, const Traini
     candidates.push_back({&references.test.runs[i], &references.test.files[i], "test"});
 
   ErrorAccumulator all, train, test;
+  std::vector<ErrorAccumulator> by_frame(frames);  // every matched rollout, frame by frame
   nlohmann::json runs = nlohmann::json::array();
   std::size_t matched = 0, stopped = 0;
   for (std::size_t b = 0; b < res.cases.size(); ++b) {
@@ -202,7 +203,9 @@ nlohmann::json evaluate_rom(const RomFile& rom, const Model& model, const Traini
                                " material points, the model has " + std::to_string(model.num_points()));
     const std::vector<double> xhat(res.xhat.begin() + b * frames * r, res.xhat.begin() + (b + 1) * frames * r);
     const std::vector<double> xhatdot(res.xhatdot.begin() + b * frames * r, res.xhatdot.begin() + (b + 1) * frames * r);
-    const ErrorAccumulator errors = rollout_errors(model, ref, xhat, xhatdot);
+    const std::vector<ErrorAccumulator> frame_errors = rollout_errors_by_frame(model, ref, xhat, xhatdot);
+    for (std::size_t f = 0; f < frames; ++f) by_frame[f].merge(frame_errors[f]);
+    const ErrorAccumulator errors = merged(frame_errors);
     const std::string split = res.cases[b].split.empty() ? match->split : res.cases[b].split;
     entry["reference"] = *match->file;
     entry["split"] = split;
@@ -222,6 +225,14 @@ nlohmann::json evaluate_rom(const RomFile& rom, const Model& model, const Traini
   out["train"] = to_json(train.metrics());
   out["test"] = to_json(test.metrics());
   out["runs"] = runs;
+  // How the error grows: each output time's errors over every matched rollout (the first frame is the projected
+  // initial state).
+  out["frames"] = nlohmann::json::array();
+  for (std::size_t f = 0; f < frames; ++f) {
+    nlohmann::json frame = to_json(by_frame[f].metrics());
+    frame["time"] = res.times[f];
+    out["frames"].push_back(frame);
+  }
   return out;
 }
 

@@ -210,6 +210,7 @@ HyperReduction impl::hyper_reduction_from_motion(const Scene& scene, const RomSe
   const Motion motion{grid, positions, P, positions.size() / (3 * P), settings.envelope_margin, next};
   HyperReduction h;
   h.samples = samples;
+  if (settings.method == RomMethod::Galerkin) return h;  // no grid: the samples are all it evaluates
   h.nodes = reached_nodes(motion, samples);
   std::vector<int> slot(std::size_t(grid.num_nodes()), -1);  // dense: the scans below visit every point at every code
   for (std::size_t n = 0; n < h.nodes.size(); ++n) slot[std::size_t(h.nodes[n])] = int(n);

@@ -179,7 +179,7 @@ std::unique_ptr<impl::BatchStepperBase> impl::create_stepper(const Model& model,
                              std::to_string(rom::max_latent_dim) + "; the model has " +
                              std::to_string(model.latent_dim));
   if (cases.empty()) throw std::runtime_error("no rollouts to run: the parameter list is empty");
-  if (reduction.samples.empty() || reduction.nodes.empty())
+  if (reduction.samples.empty() || (reduction.nodes.empty() && settings.method != RomMethod::Galerkin))
     throw std::runtime_error("the hyper-reduction has no sample points or no nodes");
   std::vector<rom::RolloutLoads> loads;
   std::vector<double> xhat0, xhatdot0;

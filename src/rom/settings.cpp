@@ -11,10 +11,19 @@ namespace mpmrom {
 RomMethod rom_method_from_string(const std::string& name) {
   if (name == "point") return RomMethod::MaterialPoint;
   if (name == "node") return RomMethod::SampleNode;
-  throw std::invalid_argument("method must be 'point' (Algorithm 1) or 'node' (Algorithm 2), not '" + name + "'");
+  if (name == "galerkin") return RomMethod::Galerkin;
+  throw std::invalid_argument("method must be 'point' (Algorithm 1), 'node' (Algorithm 2) or 'galerkin', not '" + name +
+                              "'");
 }
 
-std::string to_string(RomMethod method) { return method == RomMethod::MaterialPoint ? "point" : "node"; }
+std::string to_string(RomMethod method) {
+  switch (method) {
+    case RomMethod::MaterialPoint: return "point";
+    case RomMethod::SampleNode: return "node";
+    case RomMethod::Galerkin: return "galerkin";
+  }
+  return "";
+}
 
 SampleSelection sample_selection_from_string(const std::string& name) {
   if (name == "region") return SampleSelection::Region;
@@ -86,6 +95,8 @@ void RomSettings::validate() const {
   if (projection_iterations < 0 || projection_iterations > 10)
     throw std::invalid_argument("--projection-iterations must be in [0, 10]");
   if (!(rate_damping >= 0) || rate_damping > 1e6) throw std::invalid_argument("--rate-damping must be in [0, 1e6]");
+  if (method == RomMethod::Galerkin && projection == ProjectionScheme::Position)
+    throw std::invalid_argument("--method galerkin takes --projection velocity");
   if (newton_iterations < 1) throw std::invalid_argument("--newton-iterations must be >= 1");
   if (max_condition < 0 || regularization < 0)
     throw std::invalid_argument("--max-condition and --regularization must be >= 0");

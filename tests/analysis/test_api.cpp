@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -211,6 +212,17 @@ TEST_F(RolloutBatchApi, EvaluationTakesReferenceRunsOfAnySplit) {
   EXPECT_EQ(errors["matched"], 3);
   EXPECT_TRUE(std::isfinite(errors["test"]["position_error"].get<double>())) << errors.dump();
   EXPECT_EQ(errors["test"]["position_error"], errors["position_error"]);  // all three are test runs
+  // Per output time: the aggregate is a weighted root mean square of the frames' errors, so it lies between them.
+  const auto& frames = errors["frames"];
+  ASSERT_EQ(frames.size(), file.result.times.size());
+  double lowest = 1e300, highest = 0;
+  for (std::size_t f = 0; f < frames.size(); ++f) {
+    EXPECT_EQ(frames[f]["time"].get<double>(), file.result.times[f]);
+    lowest = std::min(lowest, frames[f]["position_error"].get<double>());
+    highest = std::max(highest, frames[f]["position_error"].get<double>());
+  }
+  EXPECT_LE(lowest, errors["position_error"].get<double>() * (1 + 1e-12));
+  EXPECT_GE(highest, errors["position_error"].get<double>() * (1 - 1e-12));
 }
 
 TEST_F(RolloutBatchApi, BadRequestsAreRefused) {

@@ -16,7 +16,9 @@
 #include <vector>
 
 #include "fom/fom.hpp"
+#include "rom/detail/batch_stepper_base.hpp"
 #include "manifold/device_data.hpp"
+#include "rom/kernels/galerkin.hpp"
 #include "rom/kernels/projection.hpp"
 #include "rom/outcome.hpp"
 #include "rom/kernels/sources.hpp"
@@ -48,71 +50,6 @@ HyperReduction hyper_reduction_from_motion(const Scene& scene, const RomSettings
                                            const std::vector<int>& samples, const std::vector<double>& positions,
                                            std::size_t P, const std::vector<int>& next = {});
 
-// Everything a batch's future depends on, at an output frame: what a rollout checkpoint holds.
-struct BatchState {
-  int frame = 0;
-  long steps = 0;
-  double step_seconds = 0, max_speed = 0;
-  std::vector<double> xhat, xhatdot, max_condition;          // (rollouts, r), (rollouts, r), (rollouts)
-  std::vector<int> flags, failures, fallbacks, regularized;  // (rollouts)
-  std::vector<double> reference;                             // Algorithm 2 warm starts: (rollouts, sources, 3)
-  std::vector<int> converged;                                //   and whether each converged (rollouts, sources)
-  std::vector<RolloutOutcome> outcomes;                      // frames completed, stop time and message
-};
-
-// A batch of rollouts on the device and the step that advances it, one output interval at a time. The base class
-// hides the manifold's type, so that the public RolloutBatch (rollout_batch.hpp) can hold any network width.
-class BatchStepperBase {
- public:
-  virtual ~BatchStepperBase() = default;
-  int rollouts() const { return int(outcomes_.size()); }
-  int latent_dim() const { return latent_dim_; }
-  int frames() const { return int(times_.size()); }  // output frames, the initial state included
-  int frame() const { return frame_; }               // the output frame the batch is at
-  double time() const { return times_[std::size_t(frame_)]; }
-  const std::vector<double>& times() const { return times_; }
-  long steps() const { return steps_; }
-  double step_seconds() const { return step_seconds_; }  // wall time spent in advance_frame
-  // Advances every running rollout to the next output time (rollouts that have stopped keep their last state);
-  // false, doing nothing, when the batch is already at the horizon.
-  virtual bool advance_frame() = 0;
-  // The latent state and its rate now, (rollouts, r) row-major each.
-  virtual void latent(std::vector<double>& xhat, std::vector<double>& xhatdot) const = 0;
-  // The same for one rollout (r values each): copies that rollout's row only.
-  virtual void latent_of(int rollout, std::vector<double>& xhat, std::vector<double>& xhatdot) const = 0;
-  // The rollout's detector flags as of the last output frame, kept on the host (no device copy).
-  int flags(int rollout) const { return outcomes_[std::size_t(rollout)].flags; }
-  // What has happened to each rollout so far: flags, stop time and message, counters, frames completed.
-  virtual std::vector<RolloutOutcome> outcomes() const = 0;
-  // The batch's state now, and back to a saved one (of a batch of the same model, scene, settings and rollouts):
-  // advancing from a restored state repeats bit for bit what the saved batch did next.
-  virtual BatchState state() const = 0;
-  virtual void restore(const BatchState& state) = 0;
-  // The last sub-step's projection inputs, for the cubature fitted to the reduced motion (rom/cubature.cpp): dg/dxhat
-  // at the samples as the final pass evaluated it (rollouts, samples, 3, r), the samples' transferred velocities
-  // (rollouts, samples, 3) and each rollout's rate before that sub-step (rollouts, r).
-  struct ProjectionInputs {
-    std::vector<double> J, velocity, rate_before;
-  };
-  virtual ProjectionInputs last_projection_inputs() const = 0;
-  // Under MPI, ranks holding shares of one batch advance it with one time step, as one process would: combine
-  // replaces each value by its maximum over the ranks (empty: this stepper holds the whole batch).
-  void share_time_step(std::function<void(double*, std::size_t)> combine) { share_max_ = std::move(combine); }
-
- protected:
-  BatchStepperBase(int rollouts, int latent_dim, std::vector<double> times)
-      : latent_dim_(latent_dim), times_(std::move(times)), outcomes_(std::size_t(rollouts)) {
-    for (auto& outcome : outcomes_) outcome.frames_completed = 1;
-  }
-  int latent_dim_;
-  std::vector<double> times_;
-  int frame_ = 0;
-  long steps_ = 0;
-  double step_seconds_ = 0;
-  std::vector<RolloutOutcome> outcomes_;  // flags, frames_completed, stopped_at and message, kept on the host
-  std::function<void(double*, std::size_t)> share_max_;
-};
-
 template <class Manifold>
 class BatchStepper final : public BatchStepperBase {
   using ExecutionSpace = Kokkos::DefaultExecutionSpace;
@@ -138,6 +75,7 @@ class BatchStepper final : public BatchStepperBase {
         S_(int(h.samples.size())),
         I_(int(h.nodes.size())),
         point_method_(settings.method == RomMethod::MaterialPoint),
+        galerkin_(settings.method == RomMethod::Galerkin),
         K_(point_method_ ? int(h.source_points.size()) : int(h.quadrature_weight.size())),
         grid_(grid_for_scene(scene)),
         material_(material_for_scene(scene)),
@@ -165,6 +103,7 @@ class BatchStepper final : public BatchStepperBase {
     points_volume_ = upload<Vector>("mpmrom::rom::source_volume", volume_src, volume_src.size());
     samples_X_ = upload<Matrix>("mpmrom::rom::samples_X", X_samples, S, 3);
     samples_weight_ = upload<Vector>("mpmrom::rom::samples_weight", weight_samples, S);
+    if (galerkin_) sample_force_ = Matrix("mpmrom::rom::sample_force", B, std::size_t(S) * r);
     quadrature_x_ = upload<Matrix>("mpmrom::rom::quadrature_x", h.quadrature_x, h.quadrature_weight.size(), 3);
     quadrature_w_ = upload<Vector>("mpmrom::rom::quadrature_w", h.quadrature_weight, h.quadrature_weight.size());
     nodes_ = upload_indices("mpmrom::rom::nodes", h.nodes);
@@ -341,35 +280,41 @@ class BatchStepper final : public BatchStepperBase {
     return times;
   }
 
-  // One time step of every rollout: sources, node velocities, sample velocities, projection (paper Algorithms 1, 2).
-  void substep(real_t t, real_t dt) {
-    const ExecutionSpace space;
-    const int B = B_, S = S_, K = K_, I = I_, r = latent_dim_;
-    // Every launch takes its functor as a kernel argument: above 512 bytes Kokkos would copy it to the GPU's constant
-    // memory instead, waiting first for the previous such kernel to finish (a host round trip per launch).
-    using LightWeight = Kokkos::Experimental::WorkItemProperty::HintLightWeight_t;
-    using Range = Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>, LightWeight>;
-    using Teams = Kokkos::TeamPolicy<ExecutionSpace, LightWeight>;
-    using PointSources = rom::MaterialPointSources<Manifold, ExecutionSpace>;
+  // Every launch takes its functor as a kernel argument: above 512 bytes Kokkos would copy it to the GPU's constant
+  // memory instead, waiting first for the previous such kernel to finish (a host round trip per launch).
+  using LightWeight = Kokkos::Experimental::WorkItemProperty::HintLightWeight_t;
+  using Range = Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>, LightWeight>;
+  using Teams = Kokkos::TeamPolicy<ExecutionSpace, LightWeight>;
+
+  // A team per so many items, with the shape's threads and lanes and its scratch.
+  static Teams teams(const ExecutionSpace& space, long items, const rom::TeamShape& shape, int per_team,
+                     const rom::TeamScratch& scratch) {
+    return Teams(space, int((items + per_team - 1) / per_team), shape.threads, shape.lanes)
+        .set_scratch_size(0, Kokkos::PerTeam(scratch.bytes(shape)));
+  }
+
+  // Positions (into `positions`) and dg/dxhat of the samples at (xhat, xhatdot).
+  void sample_kinematics(const ExecutionSpace& space, const Matrix& xhat, const Matrix& xhatdot,
+                         const Cube& positions) {
     using Samples = rom::SampleKinematics<Manifold, ExecutionSpace>;
-    // A team per so many items, with the shape's threads and lanes and its scratch.
-    const auto teams = [&](long items, const rom::TeamShape& shape, int per_team, const rom::TeamScratch& scratch) {
-      return Teams(space, int((items + per_team - 1) / per_team), shape.threads, shape.lanes)
-          .set_scratch_size(0, Kokkos::PerTeam(scratch.bytes(shape)));
-    };
-    const auto sample_kinematics = [&](const Matrix& xhat, const Matrix& xhatdot, const Cube& positions) {
-      Kokkos::parallel_for(
-          "mpmrom::rom::sample_kinematics",
-          teams(long(B) * S, samples_shape_, samples_shape_.threads, samples_scratch_),
-          Samples{manifold_, samples_X_, xhat, xhatdot, positions, sample_J_, samples_shape_, samples_scratch_});
-    };
+    Kokkos::parallel_for(
+        "mpmrom::rom::sample_kinematics",
+        teams(space, long(B_) * S_, samples_shape_, samples_shape_.threads, samples_scratch_),
+        Samples{manifold_, samples_X_, xhat, xhatdot, positions, sample_J_, samples_shape_, samples_scratch_});
+  }
+
+  // Algorithms 1 and 2 up to the projection: sources, node velocities, the samples' velocities from the grid.
+  void transfer(const ExecutionSpace& space, real_t t, real_t dt) {
+    const int B = B_, S = S_, K = K_, I = I_;
     if (point_method_) {
+      using PointSources = rom::MaterialPointSources<Manifold, ExecutionSpace>;
       Kokkos::parallel_for(
-          "mpmrom::rom::point_sources", teams(long(B) * K, sources_shape_, sources_shape_.items(), sources_scratch_),
+          "mpmrom::rom::point_sources",
+          teams(space, long(B) * K, sources_shape_, sources_shape_.items(), sources_scratch_),
           PointSources{manifold_, points_X_, points_mass_, points_volume_, xhat_, xhatdot_, loads_, material_, t, dt,
                        apic_, sources_, sample_x_, sample_J_, flags_, sources_shape_, sources_scratch_});
     } else {
-      sample_kinematics(xhat_, xhatdot_, sample_x_);
+      sample_kinematics(space, xhat_, xhatdot_, sample_x_);
       Kokkos::parallel_for("mpmrom::rom::quadrature_sources", Range(space, 0, long(B) * K),
                            rom::QuadratureSources<Manifold, MemorySpace>{manifold_,
                                                                          quadrature_x_,
@@ -406,6 +351,21 @@ class BatchStepper final : public BatchStepperBase {
         "mpmrom::rom::g2p_samples", Range(space, 0, long(B) * S),
         rom::SampleVelocities<MemorySpace>{grid_, node_slot_, sample_x_, node_v_, sample_v_, flags_},
         Kokkos::Max<real_t, MemorySpace>(fastest_sample_));
+  }
+
+  // One time step of every rollout: the samples' velocities from the grid (paper Algorithms 1, 2) or their momenta
+  // and reduced forces (Galerkin), then the projection.
+  void substep(real_t t, real_t dt) {
+    const ExecutionSpace space;
+    const int B = B_, S = S_, r = latent_dim_;
+    if (galerkin_)
+      Kokkos::parallel_reduce("mpmrom::rom::galerkin_terms", Range(space, 0, long(B) * S),
+                              rom::GalerkinSampleTerms<Manifold, MemorySpace>{
+                                  manifold_, samples_X_, xhat_, xhatdot_, loads_, material_, density_, t, sample_x_,
+                                  sample_v_, sample_J_, sample_force_, flags_},
+                              Kokkos::Max<real_t, MemorySpace>(fastest_sample_));
+    else
+      transfer(space, t, dt);
     using Projection = rom::ProjectSamples<ExecutionSpace, MemorySpace>;
     const bool positions = settings_.projection == ProjectionScheme::Position;
     const auto project = [&](bool first_pass) {
@@ -414,14 +374,15 @@ class BatchStepper final : public BatchStepperBase {
                                .set_scratch_size(0, Kokkos::PerTeam(Projection::scratch_bytes())),
                            Projection{r, samples_weight_, sample_J_, sample_v_, sample_x_, trial_x_, xhat_, xhatdot_,
                                       xhat_next_, xhatdot_next_, guard_, real_t(settings_.rate_damping), dt, first_pass,
-                                      positions && !first_pass, flags_, max_condition_, regularized_});
+                                      positions && !first_pass, flags_, max_condition_, regularized_, sample_force_});
     };
     project(true);
     // Re-project with J at the trial next state, so that the new state's own velocity field J(xhat_n+1) xhatdot
     // reproduces the transferred velocities (with J(xhat_n) the manifold's curvature is counted twice); the position
-    // scheme moves the trial state onto the samples' updated positions as it goes.
+    // scheme moves the trial state onto the samples' updated positions as it goes. The Galerkin step carries the
+    // momentum onto the trial state's tangent space the same way.
     for (int iteration = 0; iteration < settings_.projection_iterations; ++iteration) {
-      sample_kinematics(xhat_next_, xhatdot_next_, trial_x_);
+      sample_kinematics(space, xhat_next_, xhatdot_next_, trial_x_);
       project(false);
     }
     std::swap(xhat_, xhat_next_);
@@ -446,7 +407,7 @@ class BatchStepper final : public BatchStepperBase {
   Manifold manifold_;
   RomSettings settings_;
   int B_, S_, I_;
-  bool point_method_;
+  bool point_method_, galerkin_;
   int K_;
   GridGeometry<real_t> grid_;
   ElasticMaterial<real_t> material_;
@@ -465,6 +426,7 @@ class BatchStepper final : public BatchStepperBase {
 
   Matrix points_X_, samples_X_, quadrature_x_;
   Vector points_mass_, points_volume_, quadrature_w_, samples_weight_;
+  Matrix sample_force_;  // the Galerkin step's reduced force per unit mass at each sample (rollouts, samples * r)
   IndexView nodes_, offsets_, node_sources_, node_slot_;
   Kokkos::View<rom::RolloutLoads*, MemorySpace> loads_;
   Matrix xhat_, xhatdot_, xhat_next_, xhatdot_next_;

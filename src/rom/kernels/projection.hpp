@@ -99,6 +99,9 @@ struct ProjectSamples {
   Kokkos::View<int*, MemorySpace> flags;
   Kokkos::View<real_t*, MemorySpace> max_condition;   // largest estimate over the rollout's steps
   Kokkos::View<int*, MemorySpace> regularized_steps;  // steps that needed regularisation
+  // The Galerkin step's (galerkin.hpp): each sample's reduced force per unit mass, (rollouts, samples * r), whose
+  // weighted sum times dt joins the velocity's right-hand side; empty: none.
+  BatchMatrix<MemorySpace> sample_force = {};
 
   static std::size_t scratch_bytes() { return scratch_view::shmem_size(lda * lda + 2 * lda); }
 
@@ -158,6 +161,8 @@ struct ProjectSamples {
               const real_t v = sample_velocity(b, s, k);
               const real_t target = column == 0 ? v : sample_x(b, s, k) + dt * v - evaluated_x(b, s, k);
               partial += weight(s) * sample_J(b, s, k, i) * target;
+              if (column == 0 && k == 0 && sample_force.extent(0) > 0)
+                partial += weight(s) * dt * sample_force(b, s * r + i);
             },
             sum);
         Kokkos::single(Kokkos::PerThread(team), [&]() { shared[lda * lda + column * lda + i] = sum; });
