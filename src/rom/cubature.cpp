@@ -171,6 +171,7 @@ SnapshotStream reduced_motion(const Model& model, const std::string& scene_path,
     all_points.method = RomMethod::MaterialPoint;
     all_points.samples = 0;
     all_points.weighting = SampleWeighting::Mass;
+    all_points.end_time = 0;  // the training runs' horizon, whatever the rollouts' own (--end-time)
     std::vector<int> every(model.num_points());
     std::iota(every.begin(), every.end(), 0);
     const HyperReduction reduction = build_hyper_reduction(model, scene, all_points, every);
