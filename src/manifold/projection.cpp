@@ -167,7 +167,7 @@ ErrorAccumulator reconstruction_errors(const Model& model, const Snapshot& run, 
   const int P = int(run.num_points), frames = int(run.num_frames);
   if (codes.size() != std::size_t(frames) * r) throw std::invalid_argument("one code per frame is needed");
   impl::RateStencil stencil;
-  stencil.add_run(run.time, 0);
+  stencil.add_run(run.time, 0, impl::starts_at_rest(run));
   const auto rates = stencil.rates(codes, r);
   const nn::MlpLayout layout = model.layout();
   const Vector weights = upload<Vector>("mpmrom::errors::weights", model.weights, layout.num_params);

@@ -7,10 +7,12 @@
 #include <filesystem>
 #include <stdexcept>
 #include <string>
+#include <vector>
 #include <unistd.h>
 
 #include "io/hdf5_file.hpp"
 #include "mpmrom/model.hpp"
+#include "manifold/detail/rate_stencil.hpp"
 #include "manifold/trainer.hpp"
 
 namespace {
@@ -76,6 +78,24 @@ TrainingSettings small_settings() {
   s.lambda_gradient = 1.0;
   s.lambda_velocity = 1.0;
   return s;
+}
+
+// The codes' rates: central differences inside a run, one-sided at its ends, and zero at the first frame of a run
+// that starts at rest (codes c_f = f^2 at t = f here: rates 0, 2, 4, 5 for a run at rest, 1, 2, 4, 5 otherwise).
+TEST(RateStencil, CentralInsideOneSidedAtTheEndsZeroWhereARunStartsAtRest) {
+  const std::vector<double> times = {0, 1, 2, 3}, codes = {0, 1, 4, 9, 0, 1, 4, 9};
+  impl::RateStencil stencil;
+  stencil.add_run(times, 0, true);
+  stencil.add_run(times, 4, false);
+  const std::vector<double> expected = {0, 2, 4, 5, 1, 2, 4, 5};
+  EXPECT_EQ(stencil.rates(codes, 1), expected);
+  Snapshot run;
+  run.num_points = 2;
+  run.num_frames = 2;
+  run.v = {0, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 0};
+  EXPECT_TRUE(impl::starts_at_rest(run));
+  run.v[4] = 1e-30;
+  EXPECT_FALSE(impl::starts_at_rest(run));
 }
 
 TEST(Trainer, FitsATwistingBar) {

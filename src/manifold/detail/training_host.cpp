@@ -53,7 +53,7 @@ Model start_model(const TrainingData& data, const TrainingSettings& settings, Tr
   model.scene_text = first.header.scene_text;
   model.settings = settings.to_json();
   for (std::size_t run = 0; run < runs.size(); ++run) {
-    targets.stencil.add_run(runs[run].time, int(model.code_time.size()));
+    targets.stencil.add_run(runs[run].time, int(model.code_time.size()), starts_at_rest(runs[run]));
     for (std::size_t f = 0; f < runs[run].num_frames; ++f) {
       model.code_run.push_back(std::int64_t(run));
       model.code_time.push_back(runs[run].time[f]);
