@@ -5,7 +5,8 @@
 # the FOM's from `mpmrom bench fom`.
 # Usage: perf/run_rom_bench.sh BUILD_DIR MODEL SCENE [SAMPLES] [BATCH] [END_TIME]
 # END_TIME (s) shortens the rollouts (default: the scene's end time); CONFIGS="point:0 point:15 node:0 node:15"
-# (method:samples, 0 = all points) picks the configurations, e.g. to leave out all-point rollouts on 10^6 points.
+# (method:samples, 0 = all points) picks the configurations, e.g. to leave out all-point rollouts on 10^6 points;
+# SELECTION (default region) the sample selection.
 set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 build=${1:?usage: run_rom_bench.sh BUILD_DIR MODEL SCENE [SAMPLES] [BATCH]}
@@ -25,7 +26,7 @@ python3 "$here/perf/design_params.py" "$scene" "$batch" "$work/params.csv" --fir
 for config in $configs; do
   method=${config%%:*} n=${config##*:}
   rom=$("$mpmrom" -q rollout "$model" "$scene" --out "$work/rom.h5" --method "$method" --samples "$n" \
-        --selection region --params "$work/params.csv" --end-time "$end_time" --json)
+        --selection "${SELECTION:-region}" --params "$work/params.csv" --end-time "$end_time" --json)
   name=$(basename "$scene" .toml)
   record=$(python3 - "$fom" "$rom" <<'PY'
 import json, sys
