@@ -3,9 +3,9 @@
 // own deformation gradients and the external loads, assembled by cubature over the samples without a grid:
 //   f = sum_s w_s m_s q_s,   q_s = -(1 / rho0) P(F_s) : dF_s/dxhat + J_s^T (b(X_s, t) + gravity),
 //   M = sum_s w_s m_s J_s^T J_s,
-// with P : dF/dxhat_k = tau : (dF/dxhat_k F^-1) (tau the Kirchhoff stress) and w_s the cubature weight (1: every
-// point). The projection (projection.hpp) then solves M(xhat_n+1) xhatdot_n+1 = sum_s w_s m_s J_s(xhat_n+1)^T v_s + dt
-// f, v_s = J_s(xhat_n) xhatdot_n: the momentum carried onto the new tangent space plus the impulse. Parallelism: one
+// with P the first Piola-Kirchhoff stress and w_s the cubature weight (1: every point). The projection
+// (projection.hpp) then solves M(xhat_n+1) xhatdot_n+1 = sum_s w_s m_s J_s(xhat_n+1)^T v_s + dt f,
+// v_s = J_s(xhat_n) xhatdot_n: the momentum carried onto the new tangent space plus the impulse. Parallelism: one
 // thread per (rollout, sample); the network runs r + 1 times at the sample (dF/dxhat_k is the kinematics' Fdot along
 // the unit rate e_k).
 #pragma once
@@ -41,8 +41,7 @@ struct GalerkinSampleTerms {
     Mat3<real_t> F;
     real_t J;
     if (!deformation_gradient(kin, flags, b, F, J)) return;
-    const Mat3<real_t> tau = kirchhoff_stress(material, F);
-    const Mat3<real_t> F_inverse = inverse(F);
+    const Mat3<real_t> P = first_piola(material, F);
     Vec3<real_t> body = loads(b).force_per_unit_mass({{Xs[0], Xs[1], Xs[2]}}, time);
     for (int d = 0; d < 3; ++d) body[d] += loads(b).gravity[d];
     real_t unit[max_latent_dim] = {};
@@ -51,13 +50,9 @@ struct GalerkinSampleTerms {
       nn::PointKinematics<real_t> along;
       manifold.kinematics(Xs, &xhat(b, 0), unit, along, nullptr);
       unit[k] = real_t(0);
-      Mat3<real_t> dF;
+      real_t power = 0;  // P : dF/dxhat_k
       for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j) dF(i, j) = along.Fdot[i][j];
-      const Mat3<real_t> rate = dF * F_inverse;
-      real_t power = 0;
-      for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j) power += tau(i, j) * rate(i, j);
+        for (int j = 0; j < 3; ++j) power += P(i, j) * along.Fdot[i][j];
       real_t q = -power / density;
       for (int d = 0; d < 3; ++d) q += sample_J(b, s, d, k) * body[d];
       sample_force(b, s * r + k) = q;
