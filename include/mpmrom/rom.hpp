@@ -108,7 +108,8 @@ std::vector<std::int64_t> rank_samples_greedily(const Model& model, const Traini
 // - data: the full-order training runs (J at about `count` of the model's codes; fields: the runs' velocities and
 //   their accelerations by central differences of the frames), kept alive by the caller; or
 // - scene_path: the all-point reduced model (with `settings`) rolled out over at most `count` runs of the scene's
-//   training design (J of each output frame's last sub-step and the velocity that sub-step added).
+//   training design (J of each output frame's last sub-step and the velocity that sub-step added; with
+//   settings.method Galerkin, the Galerkin step's momentum J^T v and each point's reduced force).
 struct CubatureSnapshots {
   const TrainingData* data = nullptr;
   std::string scene_path;

@@ -18,11 +18,13 @@
 namespace mpmrom {
 namespace {
 
-// One snapshot at every point: dg/dxhat (P, 3, r) and the fields whose projections J^T (field) the samples must
-// reproduce (each (P, 3)).
+// One snapshot at every point: dg/dxhat (P, 3, r), the fields whose projections J^T (field) the samples must
+// reproduce (each (P, 3)) and, for the Galerkin step, each point's reduced force per unit mass (P, r; null: none).
 struct PointSnapshot {
   const double* J;
   std::vector<const double*> fields;
+  const double* reduced = nullptr;
+  std::size_t blocks() const { return fields.size() + (reduced != nullptr ? 1 : 0); }
 };
 using SnapshotStream = std::function<void(const std::function<void(const PointSnapshot&)>&)>;
 
@@ -56,6 +58,8 @@ void point_quantities(const PointSnapshot& snapshot, std::size_t p, int r, doubl
       for (int d = 0; d < 3; ++d) sum += J[d * r + i] * field[p * 3 + d];
       out[k++] = sum;
     }
+  if (snapshot.reduced != nullptr)
+    for (int i = 0; i < r; ++i) out[k++] = snapshot.reduced[p * std::size_t(r) + std::size_t(i)];
 }
 
 CubatureSystem cubature_system(const Model& model, const SnapshotStream& snapshots,
@@ -66,7 +70,7 @@ CubatureSystem cubature_system(const Model& model, const SnapshotStream& snapsho
   const std::size_t P = model.num_points(), C = candidates.size();
   std::vector<double> q;
   snapshots([&](const PointSnapshot& snapshot) {
-    const std::size_t Q = std::size_t(r * (r + 1) / 2) + snapshot.fields.size() * std::size_t(r);
+    const std::size_t Q = std::size_t(r * (r + 1) / 2) + snapshot.blocks() * std::size_t(r);
     system.per_snapshot = Q;
     q.resize(Q);
     const std::size_t first = system.f.size();
@@ -168,7 +172,9 @@ SnapshotStream reduced_motion(const Model& model, const std::string& scene_path,
     std::vector<RolloutCase> picked;
     for (std::size_t i = stride / 2; i < cases.size(); i += stride) picked.push_back(cases[i]);
     RomSettings all_points = settings;
-    all_points.method = RomMethod::MaterialPoint;
+    // The Galerkin step fits its own quantities (mass matrix, momentum, reduced force); the grid methods Algorithm 1's
+    const bool galerkin = settings.method == RomMethod::Galerkin;
+    all_points.method = galerkin ? RomMethod::Galerkin : RomMethod::MaterialPoint;
     all_points.samples = 0;
     all_points.weighting = SampleWeighting::Mass;
     all_points.end_time = 0;  // the training runs' horizon, whatever the rollouts' own (--end-time)
@@ -184,6 +190,10 @@ SnapshotStream reduced_motion(const Model& model, const std::string& scene_path,
       for (int b = 0; b < stepper->rollouts(); ++b) {
         if (stepper->flags(b) & rom::fatal_flags) continue;
         const double* J = &inputs.J[std::size_t(b) * P * 3 * r];
+        if (galerkin) {
+          use({J, {&inputs.velocity[std::size_t(b) * P * 3]}, &inputs.force[std::size_t(b) * P * r]});
+          continue;
+        }
         const double* rate = &inputs.rate_before[std::size_t(b) * r];
         // What the sub-step added to the manifold's velocity: the part the projection has to get right.
         for (std::size_t i = 0; i < P * 3; ++i) {

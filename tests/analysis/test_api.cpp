@@ -148,7 +148,8 @@ TEST_F(RolloutBatchApi, StoredSampleRankingIsTheGreedySelection) {
 // weights, at most as many as asked for; a larger count continues the same active-set path, so its total misfit is
 // no larger; refitting weights to the chosen samples (cubature_weights) reproduces the selection's weights, the same
 // restricted least-squares problem. With every point as a sample the masses are an exact solution, so the misfit is
-// only the normal equations' rounding and ridge.
+// only the normal equations' rounding and ridge. The Galerkin step's reduced motion fits its own three blocks: the
+// mass matrix, the momentum J^T v and the reduced force.
 TEST_F(RolloutBatchApi, CubatureSelectionAndWeightsFitTheAllPointSums) {
   const Model model = load_model(model_path());
   const auto data = load_training_data({(dir_ / "sweep").string()});
@@ -162,8 +163,15 @@ TEST_F(RolloutBatchApi, CubatureSelectionAndWeightsFitTheAllPointSums) {
   CubatureSnapshots reduced;
   reduced.scene_path = scene_path();
   reduced.count = 2;
-  for (const CubatureSnapshots& snapshots : {full_order, reduced}) {
-    const std::string source = snapshots.data ? "full-order runs" : "reduced motion";
+  CubatureSnapshots galerkin = reduced;
+  galerkin.settings.method = RomMethod::Galerkin;
+  for (const CubatureSnapshots& snapshots : {full_order, reduced, galerkin}) {
+    const bool is_galerkin = snapshots.settings.method == RomMethod::Galerkin;
+    const std::string source = snapshots.data ? "full-order runs" : is_galerkin ? "galerkin motion" : "reduced motion";
+    // blocks: the normal matrix, then velocity and acceleration (full order), the sub-step's velocity increment
+    // (Algorithm 1's motion) or the momentum and the reduced force (Galerkin)
+    EXPECT_EQ(cubature_selection(model, snapshots, 3).misfits.size(), snapshots.data || is_galerkin ? 3u : 2u)
+        << source;
     double previous = std::numeric_limits<double>::infinity();
     for (const std::size_t count : {3, 6, 12}) {
       const CubatureFit fit = cubature_selection(model, snapshots, count);

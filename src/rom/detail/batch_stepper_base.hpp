@@ -54,9 +54,10 @@ class BatchStepperBase {
   virtual void restore(const BatchState& state) = 0;
   // The last sub-step's projection inputs, for the cubature fitted to the reduced motion (rom/cubature.cpp): dg/dxhat
   // at the samples as the final pass evaluated it (rollouts, samples, 3, r), the samples' transferred velocities
-  // (rollouts, samples, 3) and each rollout's rate before that sub-step (rollouts, r).
+  // (rollouts, samples, 3), each rollout's rate before that sub-step (rollouts, r) and, for the Galerkin step, the
+  // samples' reduced forces per unit mass (rollouts, samples * r; empty otherwise).
   struct ProjectionInputs {
-    std::vector<double> J, velocity, rate_before;
+    std::vector<double> J, velocity, rate_before, force;
   };
   virtual ProjectionInputs last_projection_inputs() const = 0;
   // Under MPI, ranks holding shares of one batch advance it with one time step, as one process would: combine

@@ -200,7 +200,8 @@ class BatchStepper final : public BatchStepperBase {
   }
 
   ProjectionInputs last_projection_inputs() const override {
-    return {download(sample_J_), download(sample_v_), download(xhatdot_next_)};  // swapped: the rate before
+    return {download(sample_J_), download(sample_v_), download(xhatdot_next_),  // swapped: the rate before
+            galerkin_ ? download(sample_force_) : std::vector<double>()};
   }
 
   BatchState state() const override {
