@@ -6,7 +6,9 @@
 # Usage: perf/run_rom_bench.sh BUILD_DIR MODEL SCENE [SAMPLES] [BATCH] [END_TIME]
 # END_TIME (s) shortens the rollouts (default: the scene's end time); CONFIGS="point:0 point:15 node:0 node:15"
 # (method:samples, 0 = all points) picks the configurations, e.g. to leave out all-point rollouts on 10^6 points;
-# SELECTION (default region) the sample selection.
+# SELECTION (default region) the sample selection; ROM_FLAGS more rollout flags (e.g. "--cfl 3"), with TAG appended
+# to the record names. Per simulated second, the FOM's cost is its step time over its time step (`bench fom`'s
+# dt_s, the scene's CFL step at rest) and the ROM's its batch time over the simulated time and the rollouts.
 set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 build=${1:?usage: run_rom_bench.sh BUILD_DIR MODEL SCENE [SAMPLES] [BATCH]}
@@ -26,7 +28,7 @@ python3 "$here/perf/design_params.py" "$scene" "$batch" "$work/params.csv" --fir
 for config in $configs; do
   method=${config%%:*} n=${config##*:}
   rom=$("$mpmrom" -q rollout "$model" "$scene" --out "$work/rom.h5" --method "$method" --samples "$n" \
-        --selection "${SELECTION:-region}" --params "$work/params.csv" --end-time "$end_time" --json)
+        --selection "${SELECTION:-region}" --params "$work/params.csv" --end-time "$end_time" ${ROM_FLAGS:-} --json)
   name=$(basename "$scene" .toml)
   record=$(python3 - "$fom" "$rom" <<'PY'
 import json, sys
@@ -35,10 +37,12 @@ rom["fom_step_seconds"] = fom["fom_step_seconds"]
 rom["fom_particle_steps_per_s"] = fom["fom_particle_steps_per_s"]
 rom["rom_seconds_per_rollout_step"] = rom["rom_step_seconds"] / rom["rollouts"]
 rom["rom_over_fom_step_time"] = rom["rom_seconds_per_rollout_step"] / fom["fom_step_seconds"]
+rom["fom_seconds_per_simulated_second"] = fom["fom_step_seconds"] / fom["dt_s"]
+rom["speedup_per_simulated_second"] = rom["fom_seconds_per_simulated_second"] / rom["rom_seconds_per_simulated_second"]
 print(json.dumps(rom))
 PY
 )
-  out="$here/perf/results/rom_${name}_${method}_samples${n}_$(echo "$rom" | sed -n 's/.*"backend":"\([^"]*\)".*/\1/p' | tr A-Z a-z)_$(echo "$rom" | sed -n 's/.*"precision":"\([^"]*\)".*/\1/p').json"
+  out="$here/perf/results/rom_${name}_${method}_samples${n}_$(echo "$rom" | sed -n 's/.*"backend":"\([^"]*\)".*/\1/p' | tr A-Z a-z)_$(echo "$rom" | sed -n 's/.*"precision":"\([^"]*\)".*/\1/p')${TAG:-}.json"
   echo "$record" > "$out"
-  echo "$out: $(echo "$record" | python3 -c 'import json,sys; d=json.load(sys.stdin); print("ROM %.3g s per rollout-step, FOM %.3g s per step, ratio %.3g" % (d["rom_seconds_per_rollout_step"], d["fom_step_seconds"], d["rom_over_fom_step_time"]))')" >&2
+  echo "$out: $(echo "$record" | python3 -c 'import json,sys; d=json.load(sys.stdin); print("ROM %.3g s per rollout-step, FOM %.3g s per step, ratio %.3g; per simulated second FOM / ROM %.3g" % (d["rom_seconds_per_rollout_step"], d["fom_step_seconds"], d["rom_over_fom_step_time"], d["speedup_per_simulated_second"]))')" >&2
 done
