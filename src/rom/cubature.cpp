@@ -172,7 +172,8 @@ SnapshotStream reduced_motion(const Model& model, const std::string& scene_path,
     std::vector<RolloutCase> picked;
     for (std::size_t i = stride / 2; i < cases.size(); i += stride) picked.push_back(cases[i]);
     RomSettings all_points = settings;
-    // The Galerkin step fits its own quantities (mass matrix, momentum, reduced force); the grid methods Algorithm 1's
+    // The Galerkin step fits its own quantities (mass matrix, momentum, reduced force); the grid methods fit
+    // Algorithm 1's (mass matrix, the sub-step's velocity increment)
     const bool galerkin = settings.method == RomMethod::Galerkin;
     all_points.method = galerkin ? RomMethod::Galerkin : RomMethod::MaterialPoint;
     all_points.samples = 0;
