@@ -131,6 +131,16 @@ mpmrom::HyperReduction hyper_reduction(const Options& o, const mpmrom::Model& mo
   if (o.rom_settings.selection == mpmrom::SampleSelection::Cubature && o.rom_settings.samples > 0)
     selected = mpmrom::cubature_selection(model, mpmrom::cubature_snapshots(scene, o.rom_settings, training),
                                           std::size_t(o.rom_settings.samples));
+  if (o.rom_settings.selection == mpmrom::SampleSelection::GreedyProjection && o.rom_settings.samples > 0) {
+    selected = mpmrom::greedy_projection_selection(model, mpmrom::cubature_snapshots(scene, o.rom_settings, training),
+                                                   std::size_t(o.rom_settings.samples));
+    if (!quiet) {
+      std::cerr << "mpmrom rollout: greedy projection: relative error";
+      for (const double misfit : selected.misfits) std::cerr << " " << misfit;
+      std::cerr << " (the samples' projection of the velocity increments against every point's; masses, then fitted "
+                   "weights)\n";
+    }
+  }
   const auto samples =
       selected.samples.empty() ? mpmrom::select_samples(model, scene, o.rom_settings, training) : selected.samples;
   auto reduction = mpmrom::build_hyper_reduction(model, scene, o.rom_settings, samples);
@@ -158,9 +168,7 @@ int run(Options o, const Context& context) {
   o.rom_settings.selection = mpmrom::sample_selection_from_string(o.rom_selection);
   o.rom_settings.projection = mpmrom::projection_scheme_from_string(o.rom_projection);
   o.rom_settings.weighting = mpmrom::sample_weighting_from_string(o.rom_weights);
-  o.rom_settings.cubature_from_reduced_motion = o.cubature_snapshots == "reduced";
-  if (o.cubature_snapshots != "reduced" && o.cubature_snapshots != "full")
-    throw std::invalid_argument("--cubature-snapshots must be 'reduced' or 'full', not '" + o.cubature_snapshots + "'");
+  o.rom_settings.snapshot_source = mpmrom::snapshot_source_from_string(o.cubature_snapshots);
   o.rom_settings.validate();
   const mpmrom::Model model = mpmrom::load_model(o.model_path);
   const mpmrom::Scene scene = mpmrom::load_scene(o.scene_path);
@@ -263,7 +271,8 @@ void add_rollout(CLI::App& app, Commands& commands) {
                 "The samples' weights in the projection: mass, or cubature (fitted to the --data training runs)");
   add_defaulted(command, "--cubature-snapshots", o->cubature_snapshots,
                 "What the cubature fits: reduced (the all-point reduced model's projections over the scene's "
-                "training design) or full (the --data full-order runs)");
+                "training design), states (one all-point sub-step from the model's training states) or full (the "
+                "--data full-order runs)");
   add_defaulted(command, "--rate-damping", o->rom_settings.rate_damping,
                 "Tikhonov weight toward the previous latent rate, relative to the normal matrix's mean eigenvalue");
   command->add_option("--max-condition", o->rom_settings.max_condition,

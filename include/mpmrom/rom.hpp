@@ -22,10 +22,17 @@ class Communicator;
 
 // Algorithm 1, Algorithm 2, and the reduced equations of motion by cubature without a grid (docs/rom.md "Galerkin").
 enum class RomMethod { MaterialPoint, SampleNode, Galerkin };
-enum class SampleSelection { Region, Random, Greedy, Cubature };
+enum class SampleSelection { Region, Random, Greedy, Cubature, GreedyProjection };
 // After the grid update: fit the samples' velocities in the tangent space and integrate them (the paper's), or also
 // move the latent state onto the samples' updated positions by Gauss-Newton (docs/rom.md "Projection").
 enum class ProjectionScheme { Velocity, Position };
+// Where the offline fits' snapshots come from: the all-point reduced model rolled out over the scene's training
+// design (Reduced), one all-point sub-step from each of the model's training states (States), or the full-order
+// training runs (Full).
+enum class SnapshotSource { Reduced, States, Full };
+SnapshotSource snapshot_source_from_string(const std::string& name);  // "reduced", "states" or "full"
+std::string to_string(SnapshotSource source);
+
 // The samples' weights in the projection: their masses, or empirical cubature weights fitted to the training runs.
 enum class SampleWeighting { Mass, Cubature };
 
@@ -55,9 +62,8 @@ struct RomSettings {
   // Tikhonov weight toward the previous rate, relative to the mean eigenvalue of the weighted normal matrix (0: none).
   double rate_damping = 0;
   SampleWeighting weighting = SampleWeighting::Mass;
-  // Cubature (--weights and --selection cubature) fitted to the all-point reduced model's own projections over the
-  // scene's training design (true), or to the full-order training runs of --data (false).
-  bool cubature_from_reduced_motion = true;
+  // What the cubature and the greedy projection selection fit (--cubature-snapshots, docs/rom.md "Sample weights").
+  SnapshotSource snapshot_source = SnapshotSource::Reduced;
   double max_condition = 0;   // regularise the normal equations above this estimate (0: 0.01 / epsilon)
   double regularization = 0;  // mu = regularization * trace / r (0: 100 epsilon)
   // Safeguards and detectors (docs/stability.md).
@@ -129,6 +135,12 @@ CubatureFit cubature_weights(const Model& model, const CubatureSnapshots& snapsh
 // Samples and weights together: the points Lawson and Hanson's active set takes, up to count (ECSW's selection),
 // among every point (2048 spread evenly over a larger body).
 CubatureFit cubature_selection(const Model& model, const CubatureSnapshots& snapshots, std::size_t count);
+// Greedy on the projection (docs/rom.md "Sample selection"): adds, count times, the point that brings the samples'
+// mass-weighted projection of each sub-step's velocity increment closest, in kinetic energy, to the all-point one
+// over the snapshots (Algorithm 1's; the Galerkin step's are refused), then exchanges samples while that lowers the
+// error. Weights: the masses; with snapshots.settings.weighting Cubature, refitted by Gauss-Newton on the same error.
+// misfits: the relative error (sqrt of the error's energy over the all-point increments'), then with the weights.
+CubatureFit greedy_projection_selection(const Model& model, const CubatureSnapshots& snapshots, std::size_t count);
 
 // Node set, neighbours and quadrature points for the given samples, from the motion of the model's training codes.
 HyperReduction build_hyper_reduction(const Model& model, const Scene& scene, const RomSettings& settings,

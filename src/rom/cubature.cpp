@@ -1,32 +1,19 @@
 // Empirical cubature of the samples' projection (ECSW, Farhat et al.): non-negative weights with which the samples'
-// sums reproduce the all-point, mass-weighted sums of the projection over snapshots, and the greedy choice of the
-// samples that Lawson and Hanson's active set makes (docs/rom.md "Sample weights"). Snapshots come from the
-// full-order training runs, or from the all-point reduced model's own projections.
-#include <algorithm>
+// sums reproduce the all-point, mass-weighted sums of the projection over snapshots (rom/detail/snapshots.hpp), and
+// the greedy choice of the samples that Lawson and Hanson's active set makes (docs/rom.md "Sample weights").
 #include <cmath>
-#include <functional>
-#include <numeric>
 #include <stdexcept>
 #include <vector>
 
 #include "core/math/nnls.hpp"
 #include "mpmrom/rom.hpp"
-#include "rom/detail/decoder.hpp"
-#include "rom/detail/rom_stepper.hpp"
-#include "rom/detail/training_frames.hpp"
+#include "rom/detail/snapshots.hpp"
 
 namespace mpmrom {
 namespace {
 
-// One snapshot at every point: dg/dxhat (P, 3, r), the fields whose projections J^T (field) the samples must
-// reproduce (each (P, 3)) and, for the Galerkin step, each point's reduced force per unit mass (P, r; null: none).
-struct PointSnapshot {
-  const double* J;
-  std::vector<const double*> fields;
-  const double* reduced = nullptr;
-  std::size_t blocks() const { return fields.size() + (reduced != nullptr ? 1 : 0); }
-};
-using SnapshotStream = std::function<void(const std::function<void(const PointSnapshot&)>&)>;
+using impl::PointSnapshot;
+using impl::SnapshotStream;
 
 // The cubature's least-squares system in normal form over the candidate points: G = E^T E, h = E^T f, where E's
 // column c holds candidate c's quantities at every snapshot (the upper triangle of J^T J, then J^T of each field)
@@ -130,114 +117,15 @@ CubatureFit solve(const CubatureSystem& system, const std::vector<int>& candidat
   return fit;
 }
 
-// Every point, or 2048 spread evenly over a larger body (the normal form is candidates squared).
-std::vector<int> all_candidates(const Model& model) {
-  const std::size_t P = model.num_points(), stride = std::max<std::size_t>(1, (P + 2047) / 2048);
-  std::vector<int> candidates;
-  for (std::size_t p = 0; p < P; p += stride) candidates.push_back(int(p));
-  return candidates;
-}
-
-// J at about `snapshots` codes of the training runs, with the runs' velocities and accelerations there.
-SnapshotStream training_runs(const Model& model, const TrainingData& data, std::size_t snapshots) {
-  return [&model, &data, snapshots](const std::function<void(const PointSnapshot&)>& use) {
-    const int r = model.latent_dim;
-    const std::size_t P = model.num_points();
-    for (const auto& frame : impl::training_frames(model, data, snapshots)) {
-      const std::vector<double> code(model.codes.begin() + std::ptrdiff_t(frame.code * r),
-                                     model.codes.begin() + std::ptrdiff_t((frame.code + 1) * r));
-      const std::vector<double> J = impl::decoder_jacobians(model, model.X, code);  // one snapshot at a time
-      const Snapshot& run = data.train.runs[frame.run];
-      const std::vector<double> a = impl::frame_accelerations(run, frame.frame);
-      use({J.data(), {&run.v[frame.frame * P * 3], a.data()}});
-    }
-  };
-}
-
-// The all-point reduced model over at most max_rollouts of the scene's training design: at every output frame, J
-// of its last sub-step's final pass and the velocity that sub-step added.
-SnapshotStream reduced_motion(const Model& model, const std::string& scene_path, const RomSettings& settings,
-                              std::size_t max_rollouts) {
-  return [&model, scene_path, settings, max_rollouts](const std::function<void(const PointSnapshot&)>& use) {
-    const Scene scene = load_scene(scene_path);
-    // The training runs of the scene's design, at most max_rollouts spread evenly over them.
-    std::vector<RolloutCase> cases;
-    const auto runs = scene.design.all_runs();
-    for (std::size_t i = 0; i < runs.size(); ++i)
-      if (std::find(scene.design.test_runs.begin(), scene.design.test_runs.end(), int(i)) ==
-          scene.design.test_runs.end())
-        cases.push_back({runs[i], "train"});
-    if (cases.empty()) cases.push_back({{}, ""});  // a scene without a design: its one run
-    const std::size_t stride = std::max<std::size_t>(1, (cases.size() + max_rollouts - 1) / max_rollouts);
-    std::vector<RolloutCase> picked;
-    for (std::size_t i = stride / 2; i < cases.size(); i += stride) picked.push_back(cases[i]);
-    RomSettings all_points = settings;
-    // The Galerkin step fits its own quantities (mass matrix, momentum, reduced force); the grid methods fit
-    // Algorithm 1's (mass matrix, the sub-step's velocity increment)
-    const bool galerkin = settings.method == RomMethod::Galerkin;
-    all_points.method = galerkin ? RomMethod::Galerkin : RomMethod::MaterialPoint;
-    all_points.samples = 0;
-    all_points.weighting = SampleWeighting::Mass;
-    all_points.end_time = 0;  // the training runs' horizon, whatever the rollouts' own (--end-time)
-    std::vector<int> every(model.num_points());
-    std::iota(every.begin(), every.end(), 0);
-    const HyperReduction reduction = build_hyper_reduction(model, scene, all_points, every);
-    auto stepper = impl::create_stepper(model, scene_path, scene.design.names, picked, all_points, reduction);
-    const int r = model.latent_dim;
-    const std::size_t P = model.num_points();
-    std::vector<double> increment(P * 3);
-    while (stepper->advance_frame()) {
-      const auto inputs = stepper->last_projection_inputs();
-      for (int b = 0; b < stepper->rollouts(); ++b) {
-        if (stepper->flags(b) & rom::fatal_flags) continue;
-        const double* J = &inputs.J[std::size_t(b) * P * 3 * r];
-        if (galerkin) {
-          use({J, {&inputs.velocity[std::size_t(b) * P * 3]}, &inputs.force[std::size_t(b) * P * r]});
-          continue;
-        }
-        const double* rate = &inputs.rate_before[std::size_t(b) * r];
-        // What the sub-step added to the manifold's velocity: the part the projection has to get right.
-        for (std::size_t i = 0; i < P * 3; ++i) {
-          double v = 0;
-          for (int q = 0; q < r; ++q) v += J[i * r + q] * rate[q];
-          increment[i] = inputs.velocity[std::size_t(b) * P * 3 + i] - v;
-        }
-        use({J, {increment.data()}});
-      }
-    }
-  };
-}
-
-SnapshotStream snapshot_stream(const Model& model, const CubatureSnapshots& snapshots) {
-  if (snapshots.data != nullptr) return training_runs(model, *snapshots.data, snapshots.count);
-  if (snapshots.scene_path.empty())
-    throw std::invalid_argument("cubature: neither training runs nor a scene to roll the reduced model out on");
-  return reduced_motion(model, snapshots.scene_path, snapshots.settings, snapshots.count);
-}
-
 }  // namespace
 
-CubatureSnapshots cubature_snapshots(const Scene& scene, const RomSettings& settings, const TrainingData* data) {
-  CubatureSnapshots snapshots;
-  if (settings.cubature_from_reduced_motion) {
-    snapshots.scene_path = scene.source_path;
-    snapshots.settings = settings;
-    snapshots.count = 8;  // rollouts, each at every output frame
-    return snapshots;
-  }
-  if (data == nullptr || data->train.runs.empty())
-    throw std::invalid_argument("cubature from the full-order runs needs them: pass --data SWEEP_DIR");
-  snapshots.data = data;
-  return snapshots;
-}
-
 CubatureFit cubature_weights(const Model& model, const CubatureSnapshots& snapshots, const std::vector<int>& samples) {
-  return solve(cubature_system(model, snapshot_stream(model, snapshots), samples), samples, 0, false);
+  return solve(cubature_system(model, impl::snapshot_stream(model, snapshots), samples), samples, 0, false);
 }
 
 CubatureFit cubature_selection(const Model& model, const CubatureSnapshots& snapshots, std::size_t count) {
-  const std::vector<int> candidates = all_candidates(model);
-  return solve(cubature_system(model, snapshot_stream(model, snapshots), candidates), candidates, count, true);
+  const std::vector<int> candidates = impl::all_candidates(model);
+  return solve(cubature_system(model, impl::snapshot_stream(model, snapshots), candidates), candidates, count, true);
 }
 
 }  // namespace mpmrom

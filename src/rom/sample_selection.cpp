@@ -224,6 +224,8 @@ std::vector<int> select_samples(const Model& model, const Scene& scene, const Ro
     }
     case SampleSelection::Cubature:
       return cubature_selection(model, cubature_snapshots(scene, settings, data), count).samples;
+    case SampleSelection::GreedyProjection:
+      return greedy_projection_selection(model, cubature_snapshots(scene, settings, data), count).samples;
     case SampleSelection::Greedy:
       if (data != nullptr && !data->train.runs.empty()) return greedy_samples(model, *data, count);
       if (model.sample_ranking.empty())

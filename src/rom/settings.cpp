@@ -30,6 +30,7 @@ SampleSelection sample_selection_from_string(const std::string& name) {
   if (name == "random") return SampleSelection::Random;
   if (name == "greedy") return SampleSelection::Greedy;
   if (name == "cubature") return SampleSelection::Cubature;
+  if (name == "greedy-projection") return SampleSelection::GreedyProjection;
   throw std::invalid_argument("selection must be 'region', 'random', 'greedy' or 'cubature', not '" + name + "'");
 }
 
@@ -39,6 +40,7 @@ std::string to_string(SampleSelection selection) {
     case SampleSelection::Random: return "random";
     case SampleSelection::Greedy: return "greedy";
     case SampleSelection::Cubature: return "cubature";
+    case SampleSelection::GreedyProjection: return "greedy-projection";
   }
   return "";
 }
@@ -59,6 +61,17 @@ SampleWeighting sample_weighting_from_string(const std::string& name) {
   throw std::invalid_argument("weights must be 'mass' or 'cubature', not '" + name + "'");
 }
 
+SnapshotSource snapshot_source_from_string(const std::string& name) {
+  if (name == "reduced") return SnapshotSource::Reduced;
+  if (name == "states") return SnapshotSource::States;
+  if (name == "full") return SnapshotSource::Full;
+  throw std::invalid_argument("cubature snapshots must be 'reduced', 'states' or 'full', not '" + name + "'");
+}
+
+std::string to_string(SnapshotSource source) {
+  return source == SnapshotSource::Reduced ? "reduced" : source == SnapshotSource::States ? "states" : "full";
+}
+
 std::string to_string(SampleWeighting weighting) { return weighting == SampleWeighting::Mass ? "mass" : "cubature"; }
 
 nlohmann::json RomSettings::to_json() const {
@@ -75,7 +88,7 @@ nlohmann::json RomSettings::to_json() const {
           {"projection", to_string(projection)},
           {"rate_damping", rate_damping},
           {"weights", to_string(weighting)},
-          {"cubature_snapshots", cubature_from_reduced_motion ? "reduced" : "full"},
+          {"cubature_snapshots", to_string(snapshot_source)},
           {"max_condition", max_condition},
           {"regularization", regularization},
           {"regularize", regularize},

@@ -192,6 +192,49 @@ TEST_F(RolloutBatchApi, CubatureSelectionAndWeightsFitTheAllPointSums) {
   }
 }
 
+// Greedy selection on the projection, over the reduced motion and over the training states (one sub-step from each):
+// as many samples as asked for, distinct, weighted by their masses; with every point as a candidate taken, the
+// samples' projection is the all-point one, so the error is only the selection's ridge (1e-8 of the trace, relative
+// error far below 1e-6); weights refitted by Gauss-Newton start from the masses and keep only improvements, so their
+// error is at most the masses'. The Galerkin step's snapshots are refused with a line that names the remedy.
+TEST_F(RolloutBatchApi, GreedyProjectionSelectionApproachesTheAllPointProjection) {
+  const Model model = load_model(model_path());
+  CubatureSnapshots reduced;
+  reduced.scene_path = scene_path();
+  reduced.count = 2;
+  CubatureSnapshots states = reduced;
+  states.settings.snapshot_source = SnapshotSource::States;
+  for (const CubatureSnapshots& snapshots : {reduced, states}) {
+    const std::string source = to_string(snapshots.settings.snapshot_source);
+    for (const std::size_t count : {4, 10}) {
+      const CubatureFit fit = greedy_projection_selection(model, snapshots, count);
+      ASSERT_EQ(fit.samples.size(), count) << source;
+      ASSERT_EQ(fit.misfits.size(), 1u) << source;
+      EXPECT_GT(fit.misfits[0], 0.0) << source;
+      std::vector<int> sorted = fit.samples;
+      std::sort(sorted.begin(), sorted.end());
+      EXPECT_EQ(std::unique(sorted.begin(), sorted.end()), sorted.end()) << source;
+      for (std::size_t k = 0; k < count; ++k) EXPECT_EQ(fit.weights[k], model.mass[std::size_t(fit.samples[k])]);
+    }
+    CubatureSnapshots weighted = snapshots;
+    weighted.settings.weighting = SampleWeighting::Cubature;
+    const CubatureFit fit = greedy_projection_selection(model, weighted, 6);
+    ASSERT_EQ(fit.misfits.size(), 2u) << source;
+    EXPECT_LE(fit.misfits[1], fit.misfits[0]) << source;
+    for (const double w : fit.weights) EXPECT_GT(w, 0.0) << source;
+    const CubatureFit every = greedy_projection_selection(model, snapshots, model.num_points());
+    EXPECT_LT(every.misfits[0], 1e-6) << source;
+  }
+  CubatureSnapshots galerkin = reduced;
+  galerkin.settings.method = RomMethod::Galerkin;
+  try {
+    greedy_projection_selection(model, galerkin, 4);
+    ADD_FAILURE() << "the Galerkin step's snapshots were accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("--method point"), std::string::npos) << e.what();
+  }
+}
+
 // `mpmrom evaluate` against a fresh sweep of new parameter points, all of them marked test: every rollout finds its
 // reference run and the errors are reported under test, while training still needs a training run.
 TEST_F(RolloutBatchApi, EvaluationTakesReferenceRunsOfAnySplit) {

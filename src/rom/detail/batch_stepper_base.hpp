@@ -40,6 +40,9 @@ class BatchStepperBase {
   // Advances every running rollout to the next output time (rollouts that have stopped keep their last state);
   // false, doing nothing, when the batch is already at the horizon.
   virtual bool advance_frame() = 0;
+  // One sub-step of the current output interval's time step from the current state, leaving the frame, the step
+  // count and the outcomes as they were: the offline fits' snapshots of one step from given states (rom/cubature.cpp).
+  virtual void probe_substep() = 0;
   // The latent state and its rate now, (rollouts, r) row-major each.
   virtual void latent(std::vector<double>& xhat, std::vector<double>& xhatdot) const = 0;
   // The same for one rollout (r values each): copies that rollout's row only.

@@ -189,6 +189,13 @@ class BatchStepper final : public BatchStepperBase {
     return true;
   }
 
+  void probe_substep() override {
+    if (frame_ + 1 >= frames()) return;
+    const double time = times_[std::size_t(frame_)], interval = times_[std::size_t(frame_ + 1)] - time;
+    const double dt_max = cfl_ * dx_ / (wave_speed_ + double(max_speed_));
+    substep(real_t(time), real_t(interval / std::max(1.0, std::ceil(interval / dt_max - 1e-9))));
+  }
+
   void latent(std::vector<double>& xhat, std::vector<double>& xhatdot) const override {
     xhat = download(xhat_);
     xhatdot = download(xhatdot_);

@@ -1,0 +1,195 @@
+// Where the offline fits' snapshots come from (docs/rom.md "Sample weights"): the full-order training runs, the
+// all-point reduced model rolled out over the scene's training design, or one all-point sub-step from each of the
+// model's training states.
+#include <algorithm>
+#include <cstdlib>
+#include <memory>
+#include <numeric>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "rom/detail/decoder.hpp"
+#include "rom/detail/rom_stepper.hpp"
+#include "rom/detail/snapshots.hpp"
+#include "rom/detail/training_frames.hpp"
+
+namespace mpmrom {
+namespace {
+
+using impl::PointSnapshot;
+using impl::SnapshotStream;
+
+// J at about `snapshots` codes of the training runs, with the runs' velocities and accelerations there.
+SnapshotStream training_runs(const Model& model, const TrainingData& data, std::size_t snapshots) {
+  return [&model, &data, snapshots](const std::function<void(const PointSnapshot&)>& use) {
+    const int r = model.latent_dim;
+    const std::size_t P = model.num_points();
+    for (const auto& frame : impl::training_frames(model, data, snapshots)) {
+      const std::vector<double> code(model.codes.begin() + std::ptrdiff_t(frame.code * r),
+                                     model.codes.begin() + std::ptrdiff_t((frame.code + 1) * r));
+      const std::vector<double> J = impl::decoder_jacobians(model, model.X, code);  // one snapshot at a time
+      const Snapshot& run = data.train.runs[frame.run];
+      const std::vector<double> a = impl::frame_accelerations(run, frame.frame);
+      use({J.data(), {&run.v[frame.frame * P * 3], a.data()}});
+    }
+  };
+}
+
+// Up to max_rollouts training runs of the scene's design, spread evenly, with their design indices.
+std::vector<RolloutCase> training_cases(const Scene& scene, std::size_t max_rollouts, std::vector<int>& indices) {
+  std::vector<RolloutCase> cases;
+  std::vector<int> all_indices;
+  const auto runs = scene.design.all_runs();
+  for (std::size_t i = 0; i < runs.size(); ++i)
+    if (std::find(scene.design.test_runs.begin(), scene.design.test_runs.end(), int(i)) == scene.design.test_runs.end())
+      cases.push_back({runs[i], "train"}), all_indices.push_back(int(i));
+  if (cases.empty()) cases.push_back({{}, ""}), all_indices.push_back(0);  // a scene without a design: its one run
+  const std::size_t stride = std::max<std::size_t>(1, (cases.size() + max_rollouts - 1) / max_rollouts);
+  std::vector<RolloutCase> picked;
+  indices.clear();
+  for (std::size_t i = stride / 2; i < cases.size(); i += stride)
+    picked.push_back(cases[i]), indices.push_back(all_indices[i]);
+  return picked;
+}
+
+// An all-point stepper of the method's snapshots over the cases: the Galerkin step fits its own quantities (mass
+// matrix, momentum, reduced force), the grid methods Algorithm 1's (mass matrix, the sub-step's velocity increment).
+std::unique_ptr<impl::BatchStepperBase> all_point_stepper(const Model& model, const std::string& scene_path,
+                                                          const Scene& scene, const RomSettings& settings,
+                                                          const std::vector<RolloutCase>& cases) {
+  RomSettings all_points = settings;
+  all_points.method = settings.method == RomMethod::Galerkin ? RomMethod::Galerkin : RomMethod::MaterialPoint;
+  all_points.samples = 0;
+  all_points.weighting = SampleWeighting::Mass;
+  all_points.end_time = 0;  // the training runs' horizon, whatever the rollouts' own (--end-time)
+  std::vector<int> every(model.num_points());
+  std::iota(every.begin(), every.end(), 0);
+  const HyperReduction reduction = build_hyper_reduction(model, scene, all_points, every);
+  return impl::create_stepper(model, scene_path, scene.design.names, cases, all_points, reduction);
+}
+
+// Hands each running rollout's last sub-step to use: J of its final pass with the velocity that sub-step added to
+// the manifold's (the part the projection has to get right), or the Galerkin step's momentum and reduced force.
+void use_last_substep(const impl::BatchStepperBase& stepper, std::size_t P, bool galerkin,
+                      const std::function<void(const PointSnapshot&)>& use) {
+  const int r = stepper.latent_dim();
+  const auto inputs = stepper.last_projection_inputs();
+  std::vector<double> increment(P * 3);
+  for (int b = 0; b < stepper.rollouts(); ++b) {
+    if (stepper.flags(b) & rom::fatal_flags) continue;
+    const double* J = &inputs.J[std::size_t(b) * P * 3 * std::size_t(r)];
+    if (galerkin) {
+      use({J, {&inputs.velocity[std::size_t(b) * P * 3]}, &inputs.force[std::size_t(b) * P * std::size_t(r)]});
+      continue;
+    }
+    const double* rate = &inputs.rate_before[std::size_t(b) * std::size_t(r)];
+    for (std::size_t i = 0; i < P * 3; ++i) {
+      double v = 0;
+      for (int q = 0; q < r; ++q) v += J[i * std::size_t(r) + std::size_t(q)] * rate[q];
+      increment[i] = inputs.velocity[std::size_t(b) * P * 3 + i] - v;
+    }
+    use({J, {increment.data()}});
+  }
+}
+
+// The all-point reduced model over at most max_rollouts of the scene's training design, at every output frame.
+SnapshotStream reduced_motion(const Model& model, const std::string& scene_path, const RomSettings& settings,
+                              std::size_t max_rollouts) {
+  return [&model, scene_path, settings, max_rollouts](const std::function<void(const PointSnapshot&)>& use) {
+    const Scene scene = load_scene(scene_path);
+    std::vector<int> indices;
+    auto stepper = all_point_stepper(model, scene_path, scene, settings, training_cases(scene, max_rollouts, indices));
+    while (stepper->advance_frame())
+      use_last_substep(*stepper, model.num_points(), settings.method == RomMethod::Galerkin, use);
+  };
+}
+
+// The model's codes of design run `index` (its file named run_<index>.h5 by the sweep), by time.
+std::vector<std::size_t> codes_of_run(const Model& model, int index) {
+  std::vector<std::size_t> codes;
+  for (std::size_t c = 0; c < model.num_codes(); ++c) {
+    const std::string& path = model.runs[std::size_t(model.code_run[c])];
+    const std::size_t stem = path.find_last_of('/') == std::string::npos ? 0 : path.find_last_of('/') + 1;
+    if (path.compare(stem, 4, "run_") != 0) continue;
+    if (std::atoi(path.c_str() + stem + 4) == index) codes.push_back(c);
+  }
+  std::sort(codes.begin(), codes.end(),
+            [&](std::size_t a, std::size_t b) { return model.code_time[a] < model.code_time[b]; });
+  return codes;
+}
+
+// One all-point sub-step from the model's own training states: for up to max_rollouts training runs of the scene's
+// design, at every inner output frame, xhat the run's code there and xhatdot the central difference of its codes
+// (as training defines the rate). Each snapshot costs one sub-step, not a rollout: the source that scales.
+SnapshotStream training_states(const Model& model, const std::string& scene_path, const RomSettings& settings,
+                               std::size_t max_rollouts) {
+  return [&model, scene_path, settings, max_rollouts](const std::function<void(const PointSnapshot&)>& use) {
+    const Scene scene = load_scene(scene_path);
+    std::vector<int> indices;
+    auto stepper = all_point_stepper(model, scene_path, scene, settings, training_cases(scene, max_rollouts, indices));
+    const std::size_t r = std::size_t(model.latent_dim);
+    std::vector<std::vector<std::size_t>> codes;
+    for (const int index : indices) codes.push_back(codes_of_run(model, index));
+    impl::BatchState state = stepper->state();
+    const std::size_t frames = std::size_t(stepper->frames());
+    for (std::size_t f = 1; f + 1 < frames; ++f) {
+      state.frame = int(f);
+      for (std::size_t b = 0; b < codes.size(); ++b) {
+        if (codes[b].size() != frames)
+          throw std::runtime_error("cubature: the model holds " + std::to_string(codes[b].size()) +
+                                   " codes of design run " + std::to_string(indices[b]) + ", the scene " +
+                                   std::to_string(frames) + " frames");
+        const double* before = &model.codes[codes[b][f - 1] * r];
+        const double* now = &model.codes[codes[b][f] * r];
+        const double* after = &model.codes[codes[b][f + 1] * r];
+        const double span = model.code_time[codes[b][f + 1]] - model.code_time[codes[b][f - 1]];
+        for (std::size_t q = 0; q < r; ++q) {
+          state.xhat[b * r + q] = now[q];
+          state.xhatdot[b * r + q] = (after[q] - before[q]) / span;
+        }
+      }
+      stepper->restore(state);
+      stepper->probe_substep();
+      use_last_substep(*stepper, model.num_points(), settings.method == RomMethod::Galerkin, use);
+    }
+  };
+}
+
+}  // namespace
+
+namespace impl {
+
+SnapshotStream snapshot_stream(const Model& model, const CubatureSnapshots& snapshots) {
+  if (snapshots.data != nullptr) return training_runs(model, *snapshots.data, snapshots.count);
+  if (snapshots.scene_path.empty())
+    throw std::invalid_argument("cubature: neither training runs nor a scene to roll the reduced model out on");
+  if (snapshots.settings.snapshot_source == SnapshotSource::States)
+    return training_states(model, snapshots.scene_path, snapshots.settings, snapshots.count);
+  return reduced_motion(model, snapshots.scene_path, snapshots.settings, snapshots.count);
+}
+
+std::vector<int> all_candidates(const Model& model) {
+  const std::size_t P = model.num_points(), stride = std::max<std::size_t>(1, (P + 2047) / 2048);
+  std::vector<int> candidates;
+  for (std::size_t p = 0; p < P; p += stride) candidates.push_back(int(p));
+  return candidates;
+}
+
+}  // namespace impl
+
+CubatureSnapshots cubature_snapshots(const Scene& scene, const RomSettings& settings, const TrainingData* data) {
+  CubatureSnapshots snapshots;
+  if (settings.snapshot_source != SnapshotSource::Full) {
+    snapshots.scene_path = scene.source_path;
+    snapshots.settings = settings;
+    snapshots.count = 8;  // rollouts (training runs), each at every output frame
+    return snapshots;
+  }
+  if (data == nullptr || data->train.runs.empty())
+    throw std::invalid_argument("cubature from the full-order runs needs them: pass --data SWEEP_DIR");
+  snapshots.data = data;
+  return snapshots;
+}
+
+}  // namespace mpmrom
