@@ -55,14 +55,17 @@ struct Motion {
 
 // I: every node a sample's stencil reaches over the training motion, in increasing order.
 std::vector<int> reached_nodes(const Motion& m, const std::vector<int>& samples) {
-  std::set<int> node_set;
+  std::vector<char> reached(std::size_t(m.grid.num_nodes()), 0);  // dense: every point a sample visits P x C stencils
   for (const int s : samples)
     for (std::size_t c = 0; c < m.C; ++c) {
       int lo[3], hi[3];
       m.reach_from(c, std::size_t(s), lo, hi);
-      for_each_node(m.grid, lo, hi, [&](int node) { node_set.insert(node); });
+      for_each_node(m.grid, lo, hi, [&](int node) { reached[std::size_t(node)] = 1; });
     }
-  return {node_set.begin(), node_set.end()};
+  std::vector<int> nodes;
+  for (std::size_t n = 0; n < reached.size(); ++n)
+    if (reached[n]) nodes.push_back(int(n));
+  return nodes;
 }
 
 struct Box {
@@ -86,6 +89,27 @@ bool intersect(const Box& a, const Box& b, Box& out) {
 void gather_comoving_sources(const Motion& m, const std::vector<int>& samples, const std::vector<int>& slot,
                              HyperReduction& h, std::vector<std::vector<int>>& gather) {
   const std::size_t S = samples.size(), C = m.C;
+  std::vector<int> source_of(m.P, -1);
+  for (const int k : samples) {
+    source_of[k] = int(h.source_points.size());
+    h.source_points.push_back(k);
+  }
+  if (S == m.P) {  // every point a sample: no neighbours, and a node gathers every point whose own reach it is in
+    std::vector<int> last(gather.size(), -1);
+    for (std::size_t p = 0; p < m.P; ++p)
+      for (std::size_t c = 0; c < C; ++c) {
+        int lo[3], hi[3];
+        m.reach_from(c, p, lo, hi);
+        for_each_node(m.grid, lo, hi, [&](int node) {
+          const int n = slot[std::size_t(node)];
+          if (n >= 0 && last[std::size_t(n)] != int(p)) {
+            last[std::size_t(n)] = int(p);
+            gather[std::size_t(n)].push_back(source_of[p]);
+          }
+        });
+      }
+    return;
+  }
   std::vector<Box> sample_box(C * S), union_box(C);
   for (std::size_t c = 0; c < C; ++c) {
     Box& u = union_box[c];
@@ -95,11 +119,6 @@ void gather_comoving_sources(const Motion& m, const std::vector<int>& samples, c
       m.reach_from(c, std::size_t(samples[k]), b.lo, b.hi);
       for (int d = 0; d < 3; ++d) u.lo[d] = std::min(u.lo[d], b.lo[d]), u.hi[d] = std::max(u.hi[d], b.hi[d]);
     }
-  }
-  std::vector<int> source_of(m.P, -1);
-  for (const int k : samples) {
-    source_of[k] = int(h.source_points.size());
-    h.source_points.push_back(k);
   }
   std::vector<int> reached;
   for (std::size_t p = 0; p < m.P; ++p) {
