@@ -71,19 +71,23 @@ IncrementSnapshots increment_snapshots(const Model& model, const SnapshotStream&
   return set;
 }
 
-// Adds weight w times candidate c's rows to the per-snapshot normal equations (A, b).
-void add_rows(const IncrementSnapshots& set, std::size_t c, double w, std::vector<double>& A, std::vector<double>& b) {
+// Adds weight w times candidate c's three rows at snapshot t to one snapshot's normal equations A (r x r), b (r).
+void add_point(const IncrementSnapshots& set, std::size_t t, std::size_t c, double w, double* A, double* b) {
   const int r = set.r;
-  for (std::size_t t = 0; t < set.T; ++t)
-    for (int d = 0; d < 3; ++d) {
-      const double* row = &set.J[((t * set.C + c) * 3 + std::size_t(d)) * std::size_t(r)];
-      const double f = w * set.dv[(t * set.C + c) * 3 + std::size_t(d)];
-      for (int i = 0; i < r; ++i) {
-        b[t * std::size_t(r) + std::size_t(i)] += row[i] * f;
-        for (int j = 0; j < r; ++j)
-          A[(t * std::size_t(r) + std::size_t(i)) * std::size_t(r) + std::size_t(j)] += w * row[i] * row[j];
-      }
+  for (int d = 0; d < 3; ++d) {
+    const double* row = &set.J[((t * set.C + c) * 3 + std::size_t(d)) * std::size_t(r)];
+    const double f = w * set.dv[(t * set.C + c) * 3 + std::size_t(d)];
+    for (int i = 0; i < r; ++i) {
+      b[i] += row[i] * f;
+      for (int j = 0; j < r; ++j) A[i * r + j] += w * row[i] * row[j];
     }
+  }
+}
+
+// The same at every snapshot, into the per-snapshot normal equations (A, b).
+void add_rows(const IncrementSnapshots& set, std::size_t c, double w, std::vector<double>& A, std::vector<double>& b) {
+  const std::size_t r = std::size_t(set.r);
+  for (std::size_t t = 0; t < set.T; ++t) add_point(set, t, c, w, &A[t * r * r], &b[t * r]);
 }
 
 // Snapshot t's samples' increment delta_S from their normal equations (A, b) plus candidate c with weight w (c < 0:
@@ -94,15 +98,7 @@ bool solve_samples(const IncrementSnapshots& set, std::size_t t, const std::vect
   const std::size_t rr = std::size_t(r * r);
   std::copy_n(&A_base[t * rr], rr, A);
   std::copy_n(&b_base[t * std::size_t(r)], r, b);
-  if (c >= 0)
-    for (int d = 0; d < 3; ++d) {
-      const double* row = &set.J[((t * set.C + std::size_t(c)) * 3 + std::size_t(d)) * std::size_t(r)];
-      const double f = w * set.dv[(t * set.C + std::size_t(c)) * 3 + std::size_t(d)];
-      for (int i = 0; i < r; ++i) {
-        b[i] += row[i] * f;
-        for (int j = 0; j < r; ++j) A[i * r + j] += w * row[i] * row[j];
-      }
-    }
+  if (c >= 0) add_point(set, t, std::size_t(c), w, A, b);
   double trace = 0;
   for (int i = 0; i < r; ++i) trace += A[i * r + i];
   for (int i = 0; i < r; ++i) A[i * r + i] += 1e-8 * trace / r + 1e-300;
