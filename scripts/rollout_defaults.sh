@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # The measurement behind `mpmrom rollout`'s defaults (docs/rom.md "Defaults"): on a pipeline's model and its test
-# runs, the defaults (no flags) against each alternative of one setting at a time (sample selection, sample count,
-# projection iterations), each rolled out over the test runs and evaluated against their full-order runs. Prints a
-# markdown table on stdout: test position, displacement and velocity errors, stopped rollouts, seconds per simulated
-# second per rollout. Usage: scripts/rollout_defaults.sh [PIPELINE_DIR] [BUILD_DIR]
+# runs, the defaults (no flags) against each alternative of one setting at a time (sample weights, selection and
+# count, projection iterations), each rolled out over the test runs and evaluated against their full-order runs.
+# Prints a markdown table on stdout: test position, displacement and velocity errors, stopped rollouts, seconds per
+# simulated second per rollout. Usage: scripts/rollout_defaults.sh [PIPELINE_DIR] [BUILD_DIR]
 # (defaults: out/poke_pipeline from scripts/main.sh, build/double; SCENE=FILE if the scene is not scenes/NAME.toml). About 5 minutes on 2 cores for the poke cylinder.
 set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -31,6 +31,8 @@ with open(sys.argv[2], "w") as f:
 PY
 configurations=(
   "defaults|"
+  "weights mass|--weights mass"
+  "selection greedy|--selection greedy"
   "selection region|--selection region"
   "selection random|--selection random"
   "8 samples|--samples 8"

@@ -24,8 +24,8 @@ namespace {
 struct Options {
   std::string model_path, scene_path;
   RomSettings rom_settings;
-  std::string rom_method = "point", rom_selection = "greedy", rom_projection = "velocity", rom_weights = "mass",
-              cubature_snapshots = "reduced", params_path, rom_path, decode_mode = "none";
+  std::string rom_method = "point", rom_selection = "greedy-projection", rom_projection = "velocity",
+              rom_weights = "auto", cubature_snapshots = "reduced", params_path, rom_path, decode_mode = "none";
   std::vector<std::string> rom_data;
   double decode_spacing = 0;
   bool rollout_json = false;
@@ -122,43 +122,6 @@ std::function<void(const mpmrom::RomProgress&)> rollout_progress(bool quiet, std
   };
 }
 
-// The samples (--selection), their sets and their weights (--weights). Cubature selection fits the weights as it
-// chooses: they are reused rather than fitted again.
-mpmrom::HyperReduction hyper_reduction(const Options& o, const mpmrom::Model& model, const mpmrom::Scene& scene,
-                                       const mpmrom::TrainingData& data, bool quiet) {
-  const mpmrom::TrainingData* training = o.rom_data.empty() ? nullptr : &data;
-  mpmrom::CubatureFit selected;
-  if (o.rom_settings.selection == mpmrom::SampleSelection::Cubature && o.rom_settings.samples > 0)
-    selected = mpmrom::cubature_selection(model, mpmrom::cubature_snapshots(scene, o.rom_settings, training),
-                                          std::size_t(o.rom_settings.samples));
-  if (o.rom_settings.selection == mpmrom::SampleSelection::GreedyProjection && o.rom_settings.samples > 0) {
-    selected = mpmrom::greedy_projection_selection(model, mpmrom::cubature_snapshots(scene, o.rom_settings, training),
-                                                   std::size_t(o.rom_settings.samples));
-    if (!quiet) {
-      std::cerr << "mpmrom rollout: greedy projection: relative error";
-      for (const double misfit : selected.misfits) std::cerr << " " << misfit;
-      std::cerr << " (the samples' projection of the velocity increments against every point's; masses, then fitted "
-                   "weights)\n";
-    }
-  }
-  const auto samples =
-      selected.samples.empty() ? mpmrom::select_samples(model, scene, o.rom_settings, training) : selected.samples;
-  auto reduction = mpmrom::build_hyper_reduction(model, scene, o.rom_settings, samples);
-  if (o.rom_settings.weighting == mpmrom::SampleWeighting::Cubature) {
-    const auto fit =
-        selected.samples.empty()
-            ? mpmrom::cubature_weights(model, mpmrom::cubature_snapshots(scene, o.rom_settings, training), samples)
-            : selected;
-    reduction.weights = fit.weights;
-    if (!quiet) {
-      std::cerr << "mpmrom rollout: cubature weights: relative misfit";
-      for (const double misfit : fit.misfits) std::cerr << " " << misfit;
-      std::cerr << " (the normal matrix, then each projected field)\n";
-    }
-  }
-  return reduction;
-}
-
 // o is a copy: the run completes its settings.
 int run(Options o, const Context& context) {
   const bool quiet = context.quiet;
@@ -176,7 +139,10 @@ int run(Options o, const Context& context) {
   const auto cases = rollout_cases(scene, o.params_path, names);
   mpmrom::TrainingData data;
   if (!o.rom_data.empty()) data = mpmrom::load_training_data(o.rom_data);
-  const auto reduction = hyper_reduction(o, model, scene, data, quiet);
+  const auto reduction = mpmrom::prepare_hyper_reduction(
+      model, scene, o.rom_settings, o.rom_data.empty() ? nullptr : &data, [quiet](const std::string& line) {
+        if (!quiet) std::cerr << "mpmrom rollout: " << line << "\n";
+      });
   if (!quiet)
     std::cerr << "mpmrom rollout: " << cases.size() << " rollout(s)"
               << (world.size() > 1 ? " over " + std::to_string(world.size()) + " processes" : std::string())
@@ -245,8 +211,9 @@ void add_rollout(CLI::App& app, Commands& commands) {
   add_defaulted(command, "--samples", o->rom_settings.samples,
                 "Sample material points for the projection; 0: all points");
   add_defaulted(command, "--selection", o->rom_selection,
-                "Sample selection: greedy (from the model's stored ranking, or refitted to --data), cubature "
-                "(ECSW's active set on the --data runs), region or random");
+                "Sample selection: greedy-projection (the samples whose projection of the grid step best matches every "
+                "point's; the model's stored set, or fitted to the reduced model's motion), greedy (from the model's "
+                "stored ranking, or refitted to --data), cubature (ECSW's active set), region or random");
   command->add_option("--data", o->rom_data,
                       "Full-order training runs (sweep directory) to refit --selection greedy to");
   add_defaulted(command, "--seed", o->rom_settings.seed, "Seed of --selection random");
@@ -268,9 +235,11 @@ void add_rollout(CLI::App& app, Commands& commands) {
                 "velocity (fit the samples' velocities and integrate) or position (also Gauss-Newton onto the "
                 "samples' updated positions in the re-projections)");
   add_defaulted(command, "--weights", o->rom_weights,
-                "The samples' weights in the projection: mass, or cubature (fitted to the --data training runs)");
+                "The samples' weights in the projection: mass, cubature (fitted to --cubature-snapshots), or auto "
+                "(the weights greedy-projection and cubature fit with their samples, the masses otherwise)");
   add_defaulted(command, "--cubature-snapshots", o->cubature_snapshots,
-                "What the cubature fits: reduced (the all-point reduced model's projections over the scene's "
+                "What the cubature and greedy-projection fit: reduced (the all-point reduced model's projections over "
+                "the scene's "
                 "training design), states (one all-point sub-step from the model's training states) or full (the "
                 "--data full-order runs)");
   add_defaulted(command, "--rate-damping", o->rom_settings.rate_damping,

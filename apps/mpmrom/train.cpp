@@ -64,6 +64,14 @@ int train(const TrainOptions& o, const Context& context) {
   if (!world.is_root()) return 0;
   if (!quiet) std::cerr << "mpmrom train: ranking " << mpmrom::ranked_samples << " sample points greedily\n";
   model.sample_ranking = mpmrom::rank_samples_greedily(model, data, mpmrom::ranked_samples);
+  if (!o.search_scene.empty()) {
+    if (!quiet) std::cerr << "mpmrom train: choosing the default sample set on " << o.search_scene << "\n";
+    const auto selector = mpmrom::default_projection_selector(model, mpmrom::load_scene(o.search_scene));
+    mpmrom::store_projection_samples(model, selector, std::size_t(mpmrom::RomSettings{}.samples),
+                                     [quiet](const std::string& line) {
+                                       if (!quiet) std::cerr << "mpmrom train: " << line << "\n";
+                                     });
+  }
   mpmrom::save_model(o.model_path, model);
   std::error_code ignored;
   std::filesystem::remove(checkpoint, ignored);
@@ -126,14 +134,17 @@ void add_train(CLI::App& app, Commands& commands) {
                    "Search r, width and samples for the cheapest ROM whose validation position error meets this "
                    "(fraction, e.g. 0.01; several: the first decides MODEL.h5); needs --scene")
       ->check(CLI::PositiveNumber);
-  command->add_option("--scene", o->search_scene, "Scene file of the sweep, for --target-error's rollouts")
+  command
+      ->add_option("--scene", o->search_scene,
+                   "Scene file of the sweep: stores the rollouts' default sample set with the model (greedy "
+                   "projection, fitted to the reduced model's motion on it), and runs --target-error's rollouts")
       ->check(CLI::ExistingFile);
   command->add_option("--networks", o->search_networks,
                       "--target-error's networks, r x width x depth (default: r in {3,5,8} x width in {16,32,48})");
   command->add_flag("--json", o->train_json,
                     "Print a benchmark record (device, time, settings, errors) as one JSON object on stdout");
   command->footer(
-      "Example: mpmrom train data/poke --out poke_model.h5\n"
+      "Example: mpmrom train data/poke --out poke_model.h5 --scene scenes/poke_cylinder.toml\n"
       "         mpmrom train data/poke --out small.h5 --target-error 0.01 --scene scenes/poke_cylinder.toml\n"
       "Checkpoints go to MODEL.h5.ckpt while training and are removed once MODEL.h5 is written.");
   commands.push_back(

@@ -37,6 +37,10 @@ struct Model {
   // Sample points in greedy order (rank_samples_greedily, from the training runs): the first k are the greedy
   // selection of k samples, so a rollout needs no training data to select them. Empty in models without one.
   std::vector<std::int64_t> sample_ranking;
+  // The default hyper-reduction's samples and their fitted weights (the rom stage's greedy projection selection,
+  // docs/rom.md), stored by `mpmrom train --scene` and the pipeline. Empty in models without one.
+  std::vector<std::int64_t> projection_samples;
+  std::vector<double> projection_weights;
 
   std::string scene_name;
   std::string scene_text;

@@ -8,6 +8,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -33,8 +34,9 @@ enum class SnapshotSource { Reduced, States, Full };
 SnapshotSource snapshot_source_from_string(const std::string& name);  // "reduced", "states" or "full"
 std::string to_string(SnapshotSource source);
 
-// The samples' weights in the projection: their masses, or empirical cubature weights fitted to the training runs.
-enum class SampleWeighting { Mass, Cubature };
+// The samples' weights in the projection: their masses, empirical cubature weights fitted to snapshots, or (Auto) the
+// weights the selection fits with its samples (greedy projection, cubature) and the masses otherwise.
+enum class SampleWeighting { Mass, Cubature, Auto };
 
 RomMethod rom_method_from_string(const std::string& name);  // "point", "node" or "galerkin"
 std::string to_string(RomMethod method);
@@ -42,14 +44,15 @@ SampleSelection sample_selection_from_string(const std::string& name);  // "regi
 std::string to_string(SampleSelection selection);
 ProjectionScheme projection_scheme_from_string(const std::string& name);  // "velocity" or "position"
 std::string to_string(ProjectionScheme scheme);
-SampleWeighting sample_weighting_from_string(const std::string& name);  // "mass" or "cubature"
+SampleWeighting sample_weighting_from_string(const std::string& name);  // "mass", "cubature" or "auto"
 std::string to_string(SampleWeighting weighting);
 
 struct RomSettings {
   RomMethod method = RomMethod::MaterialPoint;
   int samples = 15;  // sample material points; 0: every point (no hyper-reduction)
-  // Greedy: the lowest measured error of the three (docs/rom.md "Defaults"); from the model's stored ranking.
-  SampleSelection selection = SampleSelection::Greedy;
+  // Greedy on the projection with its fitted weights: the lowest measured error (docs/rom.md "Defaults"); the
+  // model's stored set when it holds one of this count (Model::projection_samples).
+  SampleSelection selection = SampleSelection::GreedyProjection;
   std::uint64_t seed = 1;          // random selection
   double cfl = 0;                  // time step = cfl dx / (wave speed + fastest sample); 0: the scene's cfl
   double envelope_margin = 0.25;   // cells of slack around the training motion when building the node set
@@ -61,7 +64,7 @@ struct RomSettings {
   ProjectionScheme projection = ProjectionScheme::Velocity;  // "position" acts in the re-projections
   // Tikhonov weight toward the previous rate, relative to the mean eigenvalue of the weighted normal matrix (0: none).
   double rate_damping = 0;
-  SampleWeighting weighting = SampleWeighting::Mass;
+  SampleWeighting weighting = SampleWeighting::Auto;
   // What the cubature and the greedy projection selection fit (--cubature-snapshots, docs/rom.md "Sample weights").
   SnapshotSource snapshot_source = SnapshotSource::Reduced;
   double max_condition = 0;   // regularise the normal equations above this estimate (0: 0.01 / epsilon)
@@ -77,6 +80,10 @@ struct RomSettings {
   nlohmann::json to_json() const;
   void validate() const;  // throws std::invalid_argument naming the bad setting
 };
+
+// The weighting settings.weighting stands for: Auto resolved (Cubature for the greedy projection and cubature
+// selections of some samples, Mass otherwise), the others as they are.
+SampleWeighting fitted_weights(const RomSettings& settings);
 
 // The precomputed sets of a hyper-reduced model (from the training motion the model reproduces).
 struct HyperReduction {
@@ -141,10 +148,37 @@ CubatureFit cubature_selection(const Model& model, const CubatureSnapshots& snap
 // error. Weights: the masses; with snapshots.settings.weighting Cubature, refitted by Gauss-Newton on the same error.
 // misfits: the relative error (sqrt of the error's energy over the all-point increments'), then with the weights.
 CubatureFit greedy_projection_selection(const Model& model, const CubatureSnapshots& snapshots, std::size_t count);
+// The same with the snapshots gathered once (an all-point rollout or sub-step each): select() for several counts.
+class ProjectionSelector {
+ public:
+  ProjectionSelector(const Model& model, const CubatureSnapshots& snapshots);
+  // count samples; fit: also fit their weights (else their masses).
+  CubatureFit select(std::size_t count, bool fit) const;
+
+ private:
+  struct Increments;
+  std::shared_ptr<const Increments> increments_;
+};
 
 // Node set, neighbours and quadrature points for the given samples, from the motion of the model's training codes.
 HyperReduction build_hyper_reduction(const Model& model, const Scene& scene, const RomSettings& settings,
                                      const std::vector<int>& samples);
+
+// Everything settings ask of the hyper-reduction: the samples (select_samples, or the greedy projection's: the
+// model's stored set when it has one of settings.samples, else fitted to the snapshots), their sets, and their
+// weights (fitted_weights). data: the training runs, for --data / --cubature-snapshots full. log receives one line
+// per fit (what it fitted and its relative error); may be empty. selector, if given, holds the snapshots of these
+// settings already gathered (a study that selects several counts on one model).
+HyperReduction prepare_hyper_reduction(const Model& model, const Scene& scene, const RomSettings& settings,
+                                       const TrainingData* data, const std::function<void(const std::string&)>& log,
+                                       const ProjectionSelector* selector = nullptr);
+
+// The snapshots the stored set is fitted to: the reduced motion on the scene with RomSettings' defaults.
+ProjectionSelector default_projection_selector(const Model& model, const Scene& scene);
+// The greedy projection set with fitted weights that `mpmrom train --scene` and the pipeline store with a model
+// (Model::projection_samples), count samples, from default_projection_selector's snapshots.
+void store_projection_samples(Model& model, const ProjectionSelector& selector, std::size_t count,
+                              const std::function<void(const std::string&)>& log);
 
 // One rollout: parameter values (in the order of the batch's parameter names) and, if known, its split.
 struct RolloutCase {

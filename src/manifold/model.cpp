@@ -43,6 +43,12 @@ void check_model(const std::string& path, const Model& m) {
   require_finite(path, "X", m.X.data(), {n, 3});
   for (const auto p : m.sample_ranking)
     if (p < 0 || std::size_t(p) >= n) bad(path, "the sample ranking names a point that does not exist");
+  if (m.projection_weights.size() != m.projection_samples.size())
+    bad(path, "the stored projection samples and weights differ in number");
+  for (const auto p : m.projection_samples)
+    if (p < 0 || std::size_t(p) >= n) bad(path, "the stored projection samples name a point that does not exist");
+  for (const double w : m.projection_weights)
+    if (!(w > 0) || !std::isfinite(w)) bad(path, "the stored projection weights must be positive and finite");
   for (int d = 0; d < 3; ++d)
     if (!(m.standardization.input_scale[d] > 0) || !(m.standardization.output_scale[d] > 0))
       bad(path, "standardisation scales must be positive");
@@ -62,6 +68,24 @@ void write_stored(hdf5::Group& group, const std::string& name, const std::vector
 }
 
 std::vector<double> three(const double* values) { return {values[0], values[1], values[2]}; }
+
+// /samples (optional, from mpmrom train): the greedy ranking, the greedy projection's set and its weights.
+void read_samples(const std::string& path, const hdf5::Group& samples, std::size_t n, Model& m) {
+  const auto indices = [&](const std::string& name) {
+    const hdf5::Dataset dataset = samples.dataset(name);
+    const auto shape = dataset.shape();
+    if (shape.size() != 1 || shape[0] == 0 || shape[0] > n)
+      bad(path, "dataset /samples/" + name + " has shape " + shape_string(shape) + ", expected (1 to " +
+                    std::to_string(n) + " samples)");
+    return checked_integers<std::int64_t>(path, "/samples/" + name, read_checked(path, dataset, shape, ""), 0,
+                                          double(n - 1));
+  };
+  if (samples.has_child("greedy_ranking")) m.sample_ranking = indices("greedy_ranking");
+  if (!samples.has_child("projection_samples")) return;
+  m.projection_samples = indices("projection_samples");
+  m.projection_weights = read_checked(path, samples.dataset("projection_weights"), {m.projection_samples.size()},
+                                      "(one per stored projection sample)");
+}
 
 }  // namespace
 
@@ -104,9 +128,15 @@ void save_model(const std::string& path, const Model& m, const OptimizerState* o
     write_stored(reference, "mass", m.mass, {n});
     write_stored(reference, "volume", m.volume, {n});
 
-    if (!m.sample_ranking.empty()) {
+    if (!m.sample_ranking.empty() || !m.projection_samples.empty()) {
       hdf5::Group samples = file.create_group("samples");
-      write_dataset(samples, "greedy_ranking", hdf5::Element::int64, m.sample_ranking, {m.sample_ranking.size()});
+      if (!m.sample_ranking.empty())
+        write_dataset(samples, "greedy_ranking", hdf5::Element::int64, m.sample_ranking, {m.sample_ranking.size()});
+      if (!m.projection_samples.empty()) {
+        const std::size_t count = m.projection_samples.size();
+        write_dataset(samples, "projection_samples", hdf5::Element::int64, m.projection_samples, {count});
+        write_dataset(samples, "projection_weights", hdf5::Element::float64, m.projection_weights, {count});
+      }
     }
 
     if (optimizer) {
@@ -189,15 +219,7 @@ Model load_model(const std::string& path, OptimizerState* optimizer) {
   m.X = read_checked(path, reference.dataset("X"), {n, 3}, "");
   m.mass = read_checked(path, reference.dataset("mass"), {n}, "(one per point)");
   m.volume = read_checked(path, reference.dataset("volume"), {n}, "(one per point)");
-  if (file.has_child("samples")) {  // optional: models trained before the ranking was stored have none
-    const hdf5::Dataset ranking = file.group("samples").dataset("greedy_ranking");
-    const auto shape = ranking.shape();
-    if (shape.size() != 1 || shape[0] == 0 || shape[0] > n)
-      bad(path, "dataset /samples/greedy_ranking has shape " + shape_string(shape) + ", expected (1 to " +
-                    std::to_string(n) + " samples)");
-    m.sample_ranking = checked_integers<std::int64_t>(path, "/samples/greedy_ranking",
-                                                      read_checked(path, ranking, shape, ""), 0, double(n - 1));
-  }
+  if (file.has_child("samples")) read_samples(path, file.group("samples"), n, m);
   check_model(path, m);
 
   if (optimizer) {

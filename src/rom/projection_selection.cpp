@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <memory>
 #include <utility>
 #include <stdexcept>
 #include <vector>
@@ -262,26 +263,46 @@ double increment_energy(const IncrementSnapshots& set) {
 
 }  // namespace
 
-CubatureFit greedy_projection_selection(const Model& model, const CubatureSnapshots& snapshots, std::size_t count) {
-  const std::vector<int> candidates = impl::all_candidates(model);
-  const IncrementSnapshots set = increment_snapshots(model, impl::snapshot_stream(model, snapshots), candidates);
+struct ProjectionSelector::Increments {
+  std::vector<int> candidates;
   std::vector<double> masses;
-  for (const int c : candidates) masses.push_back(model.mass[std::size_t(c)]);
-  SampleSet samples(set, masses);
-  samples.grow(std::min(count, candidates.size()));
+  IncrementSnapshots set;
+  double energy = 0;
+};
+
+ProjectionSelector::ProjectionSelector(const Model& model, const CubatureSnapshots& snapshots) {
+  auto increments = std::make_shared<Increments>();
+  increments->candidates = impl::all_candidates(model);
+  increments->set = increment_snapshots(model, impl::snapshot_stream(model, snapshots), increments->candidates);
+  for (const int c : increments->candidates) increments->masses.push_back(model.mass[std::size_t(c)]);
+  increments->energy = increment_energy(increments->set);
+  increments_ = std::move(increments);
+}
+
+CubatureFit ProjectionSelector::select(std::size_t count, bool fit) const {
+  const Increments& in = *increments_;
+  const IncrementSnapshots& set = in.set;
+  SampleSet samples(set, in.masses);
+  samples.grow(std::min(count, in.candidates.size()));
   for (int pass = 0; pass < max_exchange_passes && samples.exchange(); ++pass) {
   }
-  const double energy = increment_energy(set);
-  CubatureFit fit;
-  fit.misfits = {std::sqrt(samples.error() / energy)};
-  for (const std::size_t c : samples.chosen()) fit.samples.push_back(candidates[c]), fit.weights.push_back(masses[c]);
-  if (snapshots.settings.weighting == SampleWeighting::Cubature) {
-    fit.weights = fit_weights(set, samples.chosen(), fit.weights);
+  CubatureFit selected;
+  selected.misfits = {std::sqrt(samples.error() / in.energy)};
+  for (const std::size_t c : samples.chosen())
+    selected.samples.push_back(in.candidates[c]), selected.weights.push_back(in.masses[c]);
+  if (fit) {
+    selected.weights = fit_weights(set, samples.chosen(), selected.weights);
     std::vector<double> A(set.T * std::size_t(set.r * set.r), 0.0), b(set.T * std::size_t(set.r), 0.0);
-    for (std::size_t k = 0; k < fit.weights.size(); ++k) add_rows(set, samples.chosen()[k], fit.weights[k], A, b);
-    fit.misfits.push_back(std::sqrt(projection_error(set, A, b, -1, 0) / energy));
+    for (std::size_t k = 0; k < selected.weights.size(); ++k)
+      add_rows(set, samples.chosen()[k], selected.weights[k], A, b);
+    selected.misfits.push_back(std::sqrt(projection_error(set, A, b, -1, 0) / in.energy));
   }
-  return fit;
+  return selected;
+}
+
+CubatureFit greedy_projection_selection(const Model& model, const CubatureSnapshots& snapshots, std::size_t count) {
+  return ProjectionSelector(model, snapshots)
+      .select(count, fitted_weights(snapshots.settings) == SampleWeighting::Cubature);
 }
 
 }  // namespace mpmrom

@@ -80,8 +80,7 @@ ReducedModel ReducedModel::load(const std::string& model_path, const std::string
   rom.scene_ = load_scene(scene_path);
   rom.scene_path_ = scene_path;
   rom.settings_ = settings;
-  const auto samples = select_samples(*rom.model_, rom.scene_, settings, nullptr);
-  rom.reduction_ = build_hyper_reduction(*rom.model_, rom.scene_, settings, samples);
+  rom.reduction_ = prepare_hyper_reduction(*rom.model_, rom.scene_, settings, nullptr, {});
   rom.names_ = rom.scene_.design.names;
   if (rom.names_.empty())
     for (const auto& [name, value] : rom.scene_.parameters) rom.names_.push_back(name);

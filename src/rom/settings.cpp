@@ -58,7 +58,8 @@ std::string to_string(ProjectionScheme scheme) {
 SampleWeighting sample_weighting_from_string(const std::string& name) {
   if (name == "mass") return SampleWeighting::Mass;
   if (name == "cubature") return SampleWeighting::Cubature;
-  throw std::invalid_argument("weights must be 'mass' or 'cubature', not '" + name + "'");
+  if (name == "auto") return SampleWeighting::Auto;
+  throw std::invalid_argument("weights must be 'mass', 'cubature' or 'auto', not '" + name + "'");
 }
 
 SnapshotSource snapshot_source_from_string(const std::string& name) {
@@ -72,7 +73,16 @@ std::string to_string(SnapshotSource source) {
   return source == SnapshotSource::Reduced ? "reduced" : source == SnapshotSource::States ? "states" : "full";
 }
 
-std::string to_string(SampleWeighting weighting) { return weighting == SampleWeighting::Mass ? "mass" : "cubature"; }
+std::string to_string(SampleWeighting weighting) {
+  return weighting == SampleWeighting::Mass ? "mass" : weighting == SampleWeighting::Cubature ? "cubature" : "auto";
+}
+
+SampleWeighting fitted_weights(const RomSettings& settings) {
+  if (settings.weighting != SampleWeighting::Auto) return settings.weighting;
+  const bool fits =
+      settings.selection == SampleSelection::GreedyProjection || settings.selection == SampleSelection::Cubature;
+  return fits && settings.samples > 0 ? SampleWeighting::Cubature : SampleWeighting::Mass;
+}
 
 nlohmann::json RomSettings::to_json() const {
   return {{"method", to_string(method)},
@@ -87,7 +97,7 @@ nlohmann::json RomSettings::to_json() const {
           {"projection_iterations", projection_iterations},
           {"projection", to_string(projection)},
           {"rate_damping", rate_damping},
-          {"weights", to_string(weighting)},
+          {"weights", to_string(fitted_weights(*this))},
           {"cubature_snapshots", to_string(snapshot_source)},
           {"max_condition", max_condition},
           {"regularization", regularization},

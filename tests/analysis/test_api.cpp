@@ -44,9 +44,11 @@ class RolloutBatchApi : public ::testing::Test {
     settings.depth = 3;
     settings.epochs = 30;
     const auto data = load_training_data({(dir_ / "sweep").string()});
-    Model model = train_model(data, settings, "", false);
-    save_model(unranked_model_path(), model);
+    save_model(unranked_model_path(), train_model(data, settings, "", false));
+    Model model = load_model(unranked_model_path());  // the weights as stored, in the build's precision
     model.sample_ranking = rank_samples_greedily(model, data, ranked_samples);  // as `mpmrom train` stores it
+    store_projection_samples(model, default_projection_selector(model, load_scene(scene_path())),
+                             std::size_t(RolloutBatchApi::settings().samples), {});
     save_model(model_path(), model);
   }
   static void TearDownTestSuite() { fs::remove_all(dir_); }
@@ -129,6 +131,7 @@ TEST_F(RolloutBatchApi, StoredSampleRankingIsTheGreedySelection) {
   const auto data = load_training_data({(dir_ / "sweep").string()});
   ASSERT_EQ(model.sample_ranking.size(), std::min(ranked_samples, model.num_points()));
   RomSettings s = settings();
+  s.selection = SampleSelection::Greedy;
   for (const int k : {1, 5, 8, 20}) {
     s.samples = k;
     const auto from_model = select_samples(model, scene, s, nullptr);
@@ -202,6 +205,7 @@ TEST_F(RolloutBatchApi, GreedyProjectionSelectionApproachesTheAllPointProjection
   CubatureSnapshots reduced;
   reduced.scene_path = scene_path();
   reduced.count = 2;
+  reduced.settings.weighting = SampleWeighting::Mass;
   CubatureSnapshots states = reduced;
   states.settings.snapshot_source = SnapshotSource::States;
   for (const CubatureSnapshots& snapshots : {reduced, states}) {
@@ -233,6 +237,39 @@ TEST_F(RolloutBatchApi, GreedyProjectionSelectionApproachesTheAllPointProjection
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("--method point"), std::string::npos) << e.what();
   }
+}
+
+// The default hyper-reduction: the set `mpmrom train --scene` stores is the greedy projection selection with fitted
+// weights (the same deterministic computation), a rollout of that count uses it as stored (its weights, or the
+// masses with --weights mass), and another count, or a model without a stored set, is fitted at set-up.
+TEST_F(RolloutBatchApi, StoredProjectionSetIsTheDefaultHyperReduction) {
+  const Model model = load_model(model_path()), unranked = load_model(unranked_model_path());
+  const Scene scene = load_scene(scene_path());
+  RomSettings s = settings();
+  ASSERT_EQ(s.selection, SampleSelection::GreedyProjection);
+  ASSERT_EQ(fitted_weights(s), SampleWeighting::Cubature);
+  ASSERT_EQ(model.projection_samples.size(), std::size_t(s.samples));
+  ASSERT_TRUE(unranked.projection_samples.empty());
+  const HyperReduction stored = prepare_hyper_reduction(model, scene, s, nullptr, {});
+  const HyperReduction fitted = prepare_hyper_reduction(unranked, scene, s, nullptr, {});
+  EXPECT_EQ(stored.samples, std::vector<int>(model.projection_samples.begin(), model.projection_samples.end()));
+  EXPECT_EQ(stored.weights, model.projection_weights);
+  EXPECT_EQ(fitted.samples, stored.samples);
+  EXPECT_EQ(fitted.weights, stored.weights);
+  s.weighting = SampleWeighting::Mass;
+  const HyperReduction masses = prepare_hyper_reduction(model, scene, s, nullptr, {});
+  EXPECT_EQ(masses.samples, stored.samples);
+  EXPECT_TRUE(masses.weights.empty());  // empty: the samples' masses
+  s.weighting = SampleWeighting::Auto;
+  s.samples = 5;
+  CubatureSnapshots snapshots = cubature_snapshots(scene, s, nullptr);
+  snapshots.settings.weighting = SampleWeighting::Cubature;
+  const CubatureFit five = greedy_projection_selection(model, snapshots, 5);
+  const HyperReduction other_count = prepare_hyper_reduction(model, scene, s, nullptr, {});
+  EXPECT_EQ(other_count.samples, five.samples);
+  EXPECT_EQ(other_count.weights, five.weights);
+  s.selection = SampleSelection::Region;  // auto weights: the masses for a selection that fits none
+  EXPECT_TRUE(prepare_hyper_reduction(model, scene, s, nullptr, {}).weights.empty());
 }
 
 // `mpmrom evaluate` against a fresh sweep of new parameter points, all of them marked test: every rollout finds its
@@ -283,9 +320,11 @@ TEST_F(RolloutBatchApi, BadRequestsAreRefused) {
   const auto batch = rom.batch({{1.0}});
   EXPECT_THROW(batch.decode(1, rom.reference_points()), std::out_of_range);
   EXPECT_THROW(batch.decode(0, {0.0, 0.0}), std::invalid_argument);  // not (n, 3)
-  // The default, greedy selection, takes its samples from the model's ranking: a model without one is refused.
+  // Greedy selection takes its samples from the model's ranking: a model without one is refused.
+  RomSettings greedy = settings();
+  greedy.selection = SampleSelection::Greedy;
   try {
-    ReducedModel::load(unranked_model_path(), scene_path(), settings());
+    ReducedModel::load(unranked_model_path(), scene_path(), greedy);
     ADD_FAILURE() << "a model without a sample ranking was accepted for greedy selection";
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("stores no sample ranking"), std::string::npos) << e.what();

@@ -169,7 +169,9 @@ TEST(ModelFile, RoundTripsAndRefusesBadFiles) {
   const TrainingData data = twisting_bar_data();
   TrainingSettings settings = small_settings();
   settings.epochs = 2;
-  const Model model = train_model(data, settings, "", false);
+  Model model = train_model(data, settings, "", false);
+  model.projection_samples = {3, 0, 7};  // the rom stage's stored sample set (its choice is tested there)
+  model.projection_weights = {0.5, 1.25, 2.0};
   const auto dir = std::filesystem::temp_directory_path() / ("mpmrom_test_model_" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
   const std::string path = (dir / "model.h5").string();
@@ -182,6 +184,8 @@ TEST(ModelFile, RoundTripsAndRefusesBadFiles) {
   EXPECT_EQ(loaded.runs, model.runs);
   EXPECT_EQ(loaded.settings, model.settings);
   EXPECT_EQ(loaded.errors, model.errors);
+  EXPECT_EQ(loaded.projection_samples, model.projection_samples);
+  EXPECT_EQ(loaded.projection_weights, model.projection_weights);  // float64 whatever the build
 
   const auto expect_refused = [&](const std::string& file, const std::string& words) {
     try {
@@ -214,6 +218,23 @@ TEST(ModelFile, RoundTripsAndRefusesBadFiles) {
     codes.create_dataset("values", hdf5::Element::float64, {model.num_codes(), 1}).write(values.data());
   }
   expect_refused(nan_code, "non-finite");
+  // A stored sample weight that is not positive, and a stored sample that does not exist.
+  const auto with_samples = [&](const std::string& name, std::vector<std::int64_t> samples,
+                                std::vector<double> weights) {
+    const std::string copy = (dir / name).string();
+    std::filesystem::copy_file(path, copy);
+    auto file = hdf5::File::open(copy, hdf5::File::Mode::read_write);
+    auto group = file.group("samples");
+    group.remove("projection_samples");
+    group.remove("projection_weights");
+    group.create_dataset("projection_samples", hdf5::Element::int64, {samples.size()}).write(samples.data());
+    group.create_dataset("projection_weights", hdf5::Element::float64, {weights.size()}).write(weights.data());
+    return copy;
+  };
+  expect_refused(with_samples("negative_weight.h5", {3, 0, 7}, {0.5, -1.0, 2.0}), "positive and finite");
+  expect_refused(with_samples("no_such_sample.h5", {3, 0, std::int64_t(model.num_points())}, {0.5, 1.0, 2.0}),
+                 "/samples/projection_samples");
+  expect_refused(with_samples("fewer_weights.h5", {3, 0, 7}, {0.5, 1.0}), "projection_weights");
   // Not finished, and not a model at all.
   const std::string incomplete = (dir / "incomplete.h5").string();
   std::filesystem::copy_file(path, incomplete);

@@ -117,7 +117,7 @@ json PipelineStudy::batch_throughput(const NetworkShape& shape, const RomConfigu
   RomSettings rom = rom_settings(configuration);
   rom.end_time =
       settings_.batch_end_time > 0 ? settings_.batch_end_time : 4 * scene.end_time / std::max(1, scene.num_outputs);
-  const auto reduction = runner_.hyper_reduction(model, rom, &fit_);
+  const auto reduction = runner_.hyper_reduction(model, rom, &fit_, log_);
   json points = json::array();
   for (int batch : settings_.batch_sizes) {
     std::vector<RolloutCase> cases;
@@ -161,8 +161,10 @@ Model PipelineStudy::trained(const NetworkShape& shape) {
     model = load_model(path);
     if (model.settings == training.to_json() && model.runs.size() == fit_.train.runs.size()) {
       say("network " + shape.name() + ": reusing " + path);
-      if (model.sample_ranking.empty()) {  // a model written before rollouts took their samples from it
-        model.sample_ranking = rank_samples_greedily(model, fit_, ranked_samples);
+      if (model.sample_ranking.empty() || model.projection_samples.empty()) {  // written before these were stored
+        if (model.sample_ranking.empty()) model.sample_ranking = rank_samples_greedily(model, fit_, ranked_samples);
+        if (model.projection_samples.empty())
+          store_projection_samples(model, runner_.default_selector(model), std::size_t(RomSettings{}.samples), log_);
         save_model(path, model);
       }
       if (fs::exists(history_path)) std::ifstream(history_path) >> history;
@@ -185,6 +187,7 @@ Model PipelineStudy::trained(const NetworkShape& shape) {
   const std::string checkpoint = path + ".ckpt";
   model = train_model(fit_, training, checkpoint, fs::exists(checkpoint), callbacks);
   model.sample_ranking = rank_samples_greedily(model, fit_, ranked_samples);
+  store_projection_samples(model, runner_.default_selector(model), std::size_t(RomSettings{}.samples), log_);
   save_model(path, model);
   write_file_atomically(history_path, history.dump());
   std::error_code ignored;
@@ -208,7 +211,7 @@ void PipelineStudy::record_model(const NetworkShape& shape, const Model& model, 
 
 void PipelineStudy::evaluate(const Model& model, const NetworkShape& shape, const RomConfiguration& configuration) {
   const RomSettings rom = rom_settings(configuration);
-  const auto reduction = runner_.hyper_reduction(model, rom, &fit_);
+  const auto reduction = runner_.hyper_reduction(model, rom, &fit_, log_);
   std::vector<RolloutCase> cases;
   std::vector<const Snapshot*> runs;
   for (const auto& run : validation_.runs) {

@@ -1,6 +1,8 @@
 // The studies' shared runner of reduced configurations (study_runner.hpp).
 #include "studies/detail/study_runner.hpp"
 
+#include "rom/rom_file.hpp"  // model_checksum
+
 namespace mpmrom {
 
 StudyRunner::StudyRunner(const std::string& scene_path, SampleSelection selection)
@@ -15,10 +17,29 @@ RomSettings StudyRunner::rom_settings(RomMethod method, int samples, double cfl)
   return rom;
 }
 
-HyperReduction StudyRunner::hyper_reduction(const Model& model, const RomSettings& rom,
-                                            const TrainingData* data) const {
-  const auto samples = select_samples(model, scene_, rom, data);
-  return build_hyper_reduction(model, scene_, rom, samples);
+HyperReduction StudyRunner::hyper_reduction(const Model& model, const RomSettings& rom, const TrainingData* data,
+                                            const std::function<void(const std::string&)>& log) const {
+  const bool fitted = rom.selection == SampleSelection::GreedyProjection && rom.samples > 0 &&
+                      rom.method != RomMethod::Galerkin && rom.snapshot_source != SnapshotSource::Full &&
+                      model.projection_samples.size() != std::size_t(rom.samples);
+  return prepare_hyper_reduction(model, scene_, rom, data, log, fitted ? &selector(model, rom) : nullptr);
+}
+
+const ProjectionSelector& StudyRunner::selector(const Model& model, const RomSettings& rom) const {
+  nlohmann::json step = rom.to_json();
+  for (const char* choice : {"samples", "selection", "seed", "weights", "end_time"}) step.erase(choice);
+  const std::string key = std::to_string(model_checksum(model)) + step.dump();
+  if (!selector_ || key != selector_key_) {
+    selector_ = std::make_shared<const ProjectionSelector>(model, cubature_snapshots(scene_, rom, nullptr));
+    selector_key_ = key;
+  }
+  return *selector_;
+}
+
+const ProjectionSelector& StudyRunner::default_selector(const Model& model) const {
+  RomSettings rom;
+  rom.selection = SampleSelection::GreedyProjection;
+  return selector(model, rom);
 }
 
 RomResult StudyRunner::rollouts(const Model& model, const std::string& scene_path,

@@ -2,6 +2,8 @@
 // configurations on it (their settings, their hyper-reductions, batches of rollouts).
 #pragma once
 
+#include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -19,9 +21,13 @@ class StudyRunner {
 
   // A configuration with the study's sample selection (cfl 0: the scene's); the rest are RomSettings' defaults.
   RomSettings rom_settings(RomMethod method, int samples, double cfl) const;
-  // The samples of rom on the scene (fitted to data's training runs where the selection needs them) and the
-  // hyper-reduction built on them.
-  HyperReduction hyper_reduction(const Model& model, const RomSettings& rom, const TrainingData* data) const;
+  // The hyper-reduction rom asks for on the scene (prepare_hyper_reduction; data: the training runs, where the
+  // selection fits them); log receives its fits' lines.
+  HyperReduction hyper_reduction(const Model& model, const RomSettings& rom, const TrainingData* data,
+                                 const std::function<void(const std::string&)>& log = {}) const;
+  // The greedy projection's snapshots for the model with RomSettings' defaults, kept for the model's next
+  // configurations of the same step settings.
+  const ProjectionSelector& default_selector(const Model& model) const;
   // The rollouts of cases (values in the order of names()) on the scene at scene_path: the design's or a variant.
   RomResult rollouts(const Model& model, const std::string& scene_path, const std::vector<RolloutCase>& cases,
                      const RomSettings& rom, const HyperReduction& reduction) const;
@@ -30,6 +36,10 @@ class StudyRunner {
   std::string scene_path_;
   Scene scene_;
   SampleSelection selection_;
+  // The last greedy projection snapshots and what they were gathered for (model checksum, step settings).
+  const ProjectionSelector& selector(const Model& model, const RomSettings& rom) const;
+  mutable std::string selector_key_;
+  mutable std::shared_ptr<const ProjectionSelector> selector_;
 };
 
 }  // namespace mpmrom

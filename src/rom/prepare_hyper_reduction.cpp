@@ -1,0 +1,108 @@
+// What a rollout's settings ask of the hyper-reduction, in one place for the CLI, the studies and the deployment API:
+// the samples, their precomputed sets and their weights (docs/rom.md "Sample selection", "Sample weights").
+#include <cstdio>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "mpmrom/rom.hpp"
+
+namespace mpmrom {
+namespace {
+
+std::string misfit_list(const std::vector<double>& misfits) {
+  std::string text;
+  for (const double misfit : misfits) {
+    char number[32];
+    std::snprintf(number, sizeof number, " %.3g", misfit);
+    text += number;
+  }
+  return text;
+}
+
+// The model's stored greedy projection set, when it is the one settings ask for.
+bool stored_set_applies(const Model& model, const RomSettings& settings) {
+  return settings.selection == SampleSelection::GreedyProjection &&
+         settings.snapshot_source == SnapshotSource::Reduced && settings.samples > 0 &&
+         model.projection_samples.size() == std::size_t(settings.samples);
+}
+
+// The samples and (where the selection fits them) weights of the selections that choose both together.
+CubatureFit joint_selection(const Model& model, const Scene& scene, const RomSettings& settings,
+                            const TrainingData* data, const std::function<void(const std::string&)>& log,
+                            const ProjectionSelector* selector) {
+  CubatureFit selected;
+  if (settings.samples <= 0) return selected;
+  const auto say = [&log](const std::string& line) {
+    if (log) log(line);
+  };
+  const bool fit = fitted_weights(settings) == SampleWeighting::Cubature;
+  if (settings.selection == SampleSelection::GreedyProjection && settings.method == RomMethod::Galerkin)
+    throw std::invalid_argument(
+        "--method galerkin needs another --selection (greedy, cubature, region or random): greedy-projection, the "
+        "default, fits the grid step of --method point and node");
+  if (stored_set_applies(model, settings)) {
+    for (std::size_t k = 0; k < model.projection_samples.size(); ++k) {
+      const auto p = std::size_t(model.projection_samples[k]);
+      selected.samples.push_back(int(p));
+      selected.weights.push_back(fit ? model.projection_weights[k] : model.mass[p]);
+    }
+    say("greedy projection: the model's stored set of " + std::to_string(settings.samples) + " samples" +
+        (fit ? " with its fitted weights" : ", mass weights"));
+  } else if (settings.selection == SampleSelection::GreedyProjection) {
+    say("greedy projection: fitting " + std::to_string(settings.samples) +
+        " samples to the all-point reduced model's sub-steps (" + to_string(settings.snapshot_source) +
+        " snapshots; `mpmrom train --scene` stores a set of " + std::to_string(RomSettings{}.samples) +
+        " with the model)");
+    selected = selector ? selector->select(std::size_t(settings.samples), fit)
+                        : ProjectionSelector(model, cubature_snapshots(scene, settings, data))
+                              .select(std::size_t(settings.samples), fit);
+    say("greedy projection: relative error" + misfit_list(selected.misfits) +
+        " (the samples' projection of the velocity increments against every point's; masses" +
+        (fit ? ", then fitted weights)" : ")"));
+  } else if (settings.selection == SampleSelection::Cubature) {
+    selected = cubature_selection(model, cubature_snapshots(scene, settings, data), std::size_t(settings.samples));
+  }
+  return selected;
+}
+
+}  // namespace
+
+HyperReduction prepare_hyper_reduction(const Model& model, const Scene& scene, const RomSettings& settings,
+                                       const TrainingData* data, const std::function<void(const std::string&)>& log,
+                                       const ProjectionSelector* selector) {
+  const CubatureFit selected = joint_selection(model, scene, settings, data, log, selector);
+  const auto samples = selected.samples.empty() ? select_samples(model, scene, settings, data) : selected.samples;
+  HyperReduction reduction = build_hyper_reduction(model, scene, settings, samples);
+  if (fitted_weights(settings) != SampleWeighting::Cubature) return reduction;
+  if (!selected.samples.empty() && settings.selection != SampleSelection::Cubature) {
+    reduction.weights = selected.weights;  // the greedy projection fitted them to its own error
+    return reduction;
+  }
+  const CubatureFit fit =
+      selected.samples.empty() ? cubature_weights(model, cubature_snapshots(scene, settings, data), samples) : selected;
+  reduction.weights = fit.weights;
+  if (log)
+    log("cubature weights: relative misfit" + misfit_list(fit.misfits) +
+        " (the normal matrix, then each projected field)");
+  return reduction;
+}
+
+ProjectionSelector default_projection_selector(const Model& model, const Scene& scene) {
+  RomSettings settings;
+  settings.selection = SampleSelection::GreedyProjection;
+  settings.snapshot_source = SnapshotSource::Reduced;
+  return ProjectionSelector(model, cubature_snapshots(scene, settings, nullptr));
+}
+
+void store_projection_samples(Model& model, const ProjectionSelector& selector, std::size_t count,
+                              const std::function<void(const std::string&)>& log) {
+  const CubatureFit fit = selector.select(count, true);
+  model.projection_samples.assign(fit.samples.begin(), fit.samples.end());
+  model.projection_weights = fit.weights;
+  if (log)
+    log("greedy projection: stored " + std::to_string(fit.samples.size()) + " samples, relative error" +
+        misfit_list(fit.misfits) + " (masses, then fitted weights)");
+}
+
+}  // namespace mpmrom
