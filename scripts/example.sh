@@ -13,5 +13,6 @@ cmake -S "$here/examples/rollout_consumer" -B "$work/consumer" -DCMAKE_PREFIX_PA
 cmake --build "$work/consumer" >&2
 mpmrom="$work/prefix/bin/mpmrom"
 "$mpmrom" -q sweep "$here/fuzz/seed_scene.toml" --out "$work/sweep"
-"$mpmrom" -q train "$work/sweep" --out "$work/model.h5" --latent 2 --width 8 --depth 3 --epochs 50
+"$mpmrom" -q train "$work/sweep" --out "$work/model.h5" --latent 2 --width 8 --depth 3 --epochs 50 \
+  --scene "$here/fuzz/seed_scene.toml"
 OMP_PROC_BIND=false "$work/consumer/rollout_consumer" "$work/model.h5" "$here/fuzz/seed_scene.toml" 0.5 1.0 1.5

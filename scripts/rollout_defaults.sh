@@ -4,22 +4,28 @@
 # count, projection iterations), each rolled out over the test runs and evaluated against their full-order runs.
 # Prints a markdown table on stdout: test position, displacement and velocity errors, stopped rollouts, seconds per
 # simulated second per rollout. Usage: scripts/rollout_defaults.sh [PIPELINE_DIR] [BUILD_DIR]
-# (defaults: out/poke_pipeline from scripts/main.sh, build/double; SCENE=FILE if the scene is not scenes/NAME.toml). About 5 minutes on 2 cores for the poke cylinder.
+# (defaults: out/poke_pipeline from scripts/main.sh, build/double). MODEL=FILE, DATA=SWEEP_DIR and SCENE=FILE take
+# another model, sweep or scene than the pipeline's first model, its data/ and scenes/NAME.toml. About 10 minutes on
+# 2 cores for the poke cylinder (the 8- and 30-sample selections fit their samples at set-up).
 set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 dir=${1:-$here/out/poke_pipeline}
 mpmrom=${2:-$here/build/double}/apps/mpmrom
 source "$here/scripts/lib/rom_configuration.sh"
-[ -f "$dir/data/design.csv" ] || { echo "rollout_defaults: error: no $dir/data/design.csv (run scripts/main.sh)" >&2; exit 1; }
-model=$(ls "$dir"/models/*.h5 | head -n 1)
+data=${DATA:-$dir/data}
+[ -f "$data/design.csv" ] || { echo "rollout_defaults: error: no $data/design.csv (run scripts/main.sh)" >&2; exit 1; }
+model=${MODEL:-$(ls "$dir"/models/*.h5 | head -n 1)}
 # the scene the pipeline ran (report.json names it), from scenes/ unless SCENE=FILE says otherwise
-name=$(python3 -c 'import json,sys; print(json.load(open(sys.argv[1]))["scene"])' "$dir/report.json")
-scene=${SCENE:-$here/scenes/$name.toml}
+if [ -z "${SCENE:-}" ]; then
+  name=$(python3 -c 'import json,sys; print(json.load(open(sys.argv[1]))["scene"])' "$dir/report.json")
+  SCENE=$here/scenes/$name.toml
+fi
+scene=$SCENE
 [ -f "$scene" ] || { echo "rollout_defaults: error: no scene file $scene (set SCENE=FILE)" >&2; exit 1; }
 work="$dir/rollout_defaults"
 mkdir -p "$work"
 # The test runs' parameter values (every design column before split).
-python3 - "$dir/data/design.csv" "$work/test.csv" <<'PY'
+python3 - "$data/design.csv" "$work/test.csv" <<'PY'
 import csv, sys
 rows = list(csv.DictReader(open(sys.argv[1])))
 names = [k for k in rows[0] if k not in ("split", "file")]
@@ -47,12 +53,12 @@ for entry in "${configurations[@]}"; do
   read -r -a flags <<< "${entry#*|}"
   file="$work/$(tr ' ' '_' <<< "$name")"
   echo "rollout_defaults: $name ${flags[*]}" >&2
-  rom_configuration rollout_defaults "$mpmrom" "$model" "$scene" "$work/test.csv" "$dir/data" "$file" "${flags[@]}"
+  rom_configuration rollout_defaults "$mpmrom" "$model" "$scene" "$work/test.csv" "$data" "$file" "${flags[@]}"
 done
-python3 - "$work" "$model" "${configurations[@]}" <<'PY'
+python3 - "$work" "$model" "$data" "${configurations[@]}" <<'PY'
 import json, os, sys
-work, model, entries = sys.argv[1], sys.argv[2], sys.argv[3:]
-print("Model `%s`, test runs of `%s`:\n" % (os.path.basename(model), os.path.dirname(work)))
+work, model, data, entries = sys.argv[1], sys.argv[2], sys.argv[3], sys.argv[4:]
+print("Model `%s`, test runs of `%s`:\n" % (model, data))
 print("| configuration | flags | position | displacement | velocity | stopped | s per simulated s |")
 print("| --- | --- | --- | --- | --- | --- | --- |")
 for entry in entries:

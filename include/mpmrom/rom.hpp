@@ -128,6 +128,9 @@ struct CubatureSnapshots {
   std::string scene_path;
   RomSettings settings;
   std::size_t count = 48;
+  // The offline selections' candidates: every point, or this many spread evenly over a larger body; there the
+  // training-state snapshots hold the candidates alone (their mass-weighted sums a quadrature of the all-point ones).
+  std::size_t max_candidates = 2048;
 };
 struct CubatureFit {
   std::vector<int> samples;
@@ -140,7 +143,7 @@ CubatureSnapshots cubature_snapshots(const Scene& scene, const RomSettings& sett
 // Weights for the given samples (a weight may be 0).
 CubatureFit cubature_weights(const Model& model, const CubatureSnapshots& snapshots, const std::vector<int>& samples);
 // Samples and weights together: the points Lawson and Hanson's active set takes, up to count (ECSW's selection),
-// among every point (2048 spread evenly over a larger body).
+// among every point (max_candidates spread evenly over a larger body).
 CubatureFit cubature_selection(const Model& model, const CubatureSnapshots& snapshots, std::size_t count);
 // Greedy on the projection (docs/rom.md "Sample selection"): adds, count times, the point that brings the samples'
 // mass-weighted projection of each sub-step's velocity increment closest, in kinetic energy, to the all-point one

@@ -30,7 +30,7 @@ struct CubatureSystem {
   int blocks() const { return 1 + int((per_snapshot - std::size_t(r * (r + 1) / 2)) / std::size_t(r)); }
 };
 
-void point_quantities(const PointSnapshot& snapshot, std::size_t p, int r, double* out) {
+void point_quantities(const PointSnapshot& snapshot, std::size_t p, int r, double* out) {  // p: the row
   const double* J = snapshot.J + p * 3 * std::size_t(r);
   int k = 0;
   for (int i = 0; i < r; ++i)
@@ -63,12 +63,14 @@ CubatureSystem cubature_system(const Model& model, const SnapshotStream& snapsho
     const std::size_t first = system.f.size();
     system.f.resize(first + Q, 0.0);
     system.E.resize((first + Q) * C, 0.0);
-    for (std::size_t p = 0; p < P; ++p) {
-      point_quantities(snapshot, p, r, q.data());
-      for (std::size_t k = 0; k < Q; ++k) system.f[first + k] += model.mass[p] * q[k];
+    for (std::size_t row = 0; row < snapshot.rows(P); ++row) {
+      point_quantities(snapshot, row, r, q.data());
+      const double m = snapshot.mass_scale * model.mass[snapshot.point(row)];
+      for (std::size_t k = 0; k < Q; ++k) system.f[first + k] += m * q[k];
     }
+    const std::vector<std::size_t> rows = snapshot.rows_of(candidates);
     for (std::size_t c = 0; c < C; ++c) {
-      point_quantities(snapshot, std::size_t(candidates[c]), r, q.data());
+      point_quantities(snapshot, rows[c], r, q.data());
       for (std::size_t k = 0; k < Q; ++k) system.E[(first + k) * C + c] = q[k];
     }
   });
@@ -124,7 +126,7 @@ CubatureFit cubature_weights(const Model& model, const CubatureSnapshots& snapsh
 }
 
 CubatureFit cubature_selection(const Model& model, const CubatureSnapshots& snapshots, std::size_t count) {
-  const std::vector<int> candidates = impl::all_candidates(model);
+  const std::vector<int> candidates = impl::all_candidates(model, snapshots.max_candidates);
   return solve(cubature_system(model, impl::snapshot_stream(model, snapshots), candidates), candidates, count, true);
 }
 

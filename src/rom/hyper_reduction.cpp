@@ -68,72 +68,41 @@ std::vector<int> reached_nodes(const Motion& m, const std::vector<int>& samples)
   return nodes;
 }
 
-struct Box {
-  int lo[3], hi[3];
-};
-
-bool intersect(const Box& a, const Box& b, Box& out) {
-  for (int d = 0; d < 3; ++d) {
-    out.lo[d] = std::max(a.lo[d], b.lo[d]);
-    out.hi[d] = std::min(a.hi[d], b.hi[d]);
-    if (out.lo[d] > out.hi[d]) return false;
-  }
-  return true;
-}
-
 // Algorithm 1. Sources: the samples, then their co-moving neighbours N: every point that, at some training code,
 // reaches a node of a sample's stencil at that same code (a point passing through where a sample was at another time
 // never shares its nodes). Node n gathers from p if p reaches n while n is in a sample's stencil; at run time the
 // nodes around the samples are then complete, and the other nodes of I, incomplete, are never read by G2P.
-// slot: each grid node's index in I (-1: not in I).
+// slot: each grid node's index in I (-1: not in I). The samples' stencils are marked per code (a bit a node), so
+// each point's test costs its own stencil: O((points + samples) x codes x stencil), whatever the number of samples.
 void gather_comoving_sources(const Motion& m, const std::vector<int>& samples, const std::vector<int>& slot,
                              HyperReduction& h, std::vector<std::vector<int>>& gather) {
-  const std::size_t S = samples.size(), C = m.C;
+  const std::size_t C = m.C, words = (std::size_t(m.grid.num_nodes()) + 63) / 64;
   std::vector<int> source_of(m.P, -1);
   for (const int k : samples) {
     source_of[k] = int(h.source_points.size());
     h.source_points.push_back(k);
   }
-  if (S == m.P) {  // every point a sample: no neighbours, and a node gathers every point whose own reach it is in
-    std::vector<int> last(gather.size(), -1);
-    for (std::size_t p = 0; p < m.P; ++p)
-      for (std::size_t c = 0; c < C; ++c) {
-        int lo[3], hi[3];
-        m.reach_from(c, p, lo, hi);
-        for_each_node(m.grid, lo, hi, [&](int node) {
-          const int n = slot[std::size_t(node)];
-          if (n >= 0 && last[std::size_t(n)] != int(p)) {
-            last[std::size_t(n)] = int(p);
-            gather[std::size_t(n)].push_back(source_of[p]);
-          }
-        });
-      }
-    return;
-  }
-  std::vector<Box> sample_box(C * S), union_box(C);
-  for (std::size_t c = 0; c < C; ++c) {
-    Box& u = union_box[c];
-    for (int d = 0; d < 3; ++d) u.lo[d] = m.grid.dims[d], u.hi[d] = -1;
-    for (std::size_t k = 0; k < S; ++k) {
-      Box& b = sample_box[c * S + k];
-      m.reach_from(c, std::size_t(samples[k]), b.lo, b.hi);
-      for (int d = 0; d < 3; ++d) u.lo[d] = std::min(u.lo[d], b.lo[d]), u.hi[d] = std::max(u.hi[d], b.hi[d]);
+  std::vector<std::uint64_t> in_stencil(C * words, 0);  // code c, node n: bit n of word c * words + n / 64
+  for (const int s : samples)
+    for (std::size_t c = 0; c < C; ++c) {
+      int lo[3], hi[3];
+      m.reach_from(c, std::size_t(s), lo, hi);
+      for_each_node(m.grid, lo, hi, [&](int node) {
+        in_stencil[c * words + std::size_t(node) / 64] |= std::uint64_t(1) << (node % 64);
+      });
     }
-  }
-  std::vector<int> reached;
+  std::vector<int> last(gather.size(), -1), reached;
   for (std::size_t p = 0; p < m.P; ++p) {
     reached.clear();
     for (std::size_t c = 0; c < C; ++c) {
-      Box own, shared;
-      m.reach_from(c, p, own.lo, own.hi);
-      if (!intersect(own, union_box[c], shared)) continue;
-      for (std::size_t k = 0; k < S; ++k) {
-        if (!intersect(own, sample_box[c * S + k], shared)) continue;
-        for_each_node(m.grid, shared.lo, shared.hi, [&](int node) {
-          const int n = slot[std::size_t(node)];
-          if (std::find(reached.begin(), reached.end(), n) == reached.end()) reached.push_back(n);
-        });
-      }
+      int lo[3], hi[3];
+      m.reach_from(c, p, lo, hi);
+      const std::uint64_t* marks = &in_stencil[c * words];
+      for_each_node(m.grid, lo, hi, [&](int node) {
+        if (!((marks[std::size_t(node) / 64] >> (node % 64)) & 1)) return;
+        const int n = slot[std::size_t(node)];
+        if (last[std::size_t(n)] != int(p)) last[std::size_t(n)] = int(p), reached.push_back(n);
+      });
     }
     if (reached.empty()) continue;
     if (source_of[p] < 0) {

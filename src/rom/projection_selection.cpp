@@ -47,10 +47,11 @@ IncrementSnapshots increment_snapshots(const Model& model, const SnapshotStream&
           "greedy projection selection fits the grid step's velocity increments: it needs --cubature-snapshots "
           "reduced or states, and --method point or node");
     std::vector<double> A(rr, 0.0), b(std::size_t(r), 0.0);
-    for (std::size_t p = 0; p < P; ++p)
+    for (std::size_t p = 0; p < snapshot.rows(P); ++p)  // p: the row
       for (int d = 0; d < 3; ++d) {
         const double* row = snapshot.J + (p * 3 + std::size_t(d)) * std::size_t(r);
-        const double m = model.mass[p], f = snapshot.fields[0][p * 3 + std::size_t(d)];
+        const double m = snapshot.mass_scale * model.mass[snapshot.point(p)];
+        const double f = snapshot.fields[0][p * 3 + std::size_t(d)];
         for (int i = 0; i < r; ++i) {
           b[std::size_t(i)] += m * row[i] * f;
           for (int j = 0; j < r; ++j) A[std::size_t(i * r + j)] += m * row[i] * row[j];
@@ -61,10 +62,9 @@ IncrementSnapshots increment_snapshots(const Model& model, const SnapshotStream&
     dense::SerialCholeskySolve(L.data(), r, r, delta.data());
     set.A.insert(set.A.end(), A.begin(), A.end());
     set.delta.insert(set.delta.end(), delta.begin(), delta.end());
-    for (const int c : candidates) {
-      set.J.insert(set.J.end(), snapshot.J + std::size_t(c) * 3 * std::size_t(r),
-                   snapshot.J + (std::size_t(c) + 1) * 3 * std::size_t(r));
-      set.dv.insert(set.dv.end(), snapshot.fields[0] + std::size_t(c) * 3, snapshot.fields[0] + std::size_t(c) * 3 + 3);
+    for (const std::size_t c : snapshot.rows_of(candidates)) {
+      set.J.insert(set.J.end(), snapshot.J + c * 3 * std::size_t(r), snapshot.J + (c + 1) * 3 * std::size_t(r));
+      set.dv.insert(set.dv.end(), snapshot.fields[0] + c * 3, snapshot.fields[0] + c * 3 + 3);
     }
     ++set.T;
   });
@@ -272,7 +272,7 @@ struct ProjectionSelector::Increments {
 
 ProjectionSelector::ProjectionSelector(const Model& model, const CubatureSnapshots& snapshots) {
   auto increments = std::make_shared<Increments>();
-  increments->candidates = impl::all_candidates(model);
+  increments->candidates = impl::all_candidates(model, snapshots.max_candidates);
   increments->set = increment_snapshots(model, impl::snapshot_stream(model, snapshots), increments->candidates);
   for (const int c : increments->candidates) increments->masses.push_back(model.mass[std::size_t(c)]);
   increments->energy = increment_energy(increments->set);

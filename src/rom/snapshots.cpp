@@ -1,6 +1,6 @@
 // Where the offline fits' snapshots come from (docs/rom.md "Sample weights"): the full-order training runs, the
-// all-point reduced model rolled out over the scene's training design, or one all-point sub-step from each of the
-// model's training states.
+// all-point reduced model rolled out over the scene's training design, or one sub-step from each of the model's
+// training states (at every point, or at the candidates alone on a large body).
 #include <algorithm>
 #include <cstdlib>
 #include <memory>
@@ -53,43 +53,55 @@ std::vector<RolloutCase> training_cases(const Scene& scene, std::size_t max_roll
   return picked;
 }
 
-// An all-point stepper of the method's snapshots over the cases: the Galerkin step fits its own quantities (mass
-// matrix, momentum, reduced force), the grid methods Algorithm 1's (mass matrix, the sub-step's velocity increment).
-std::unique_ptr<impl::BatchStepperBase> all_point_stepper(const Model& model, const std::string& scene_path,
-                                                          const Scene& scene, const RomSettings& settings,
-                                                          const std::vector<RolloutCase>& cases) {
-  RomSettings all_points = settings;
-  all_points.method = settings.method == RomMethod::Galerkin ? RomMethod::Galerkin : RomMethod::MaterialPoint;
-  all_points.samples = 0;
-  all_points.weighting = SampleWeighting::Mass;
-  all_points.end_time = 0;  // the training runs' horizon, whatever the rollouts' own (--end-time)
+// A stepper of the method's snapshots over the cases, sampling `points` (every point, or the candidates of a large
+// body): the Galerkin step fits its own quantities (mass matrix, momentum, reduced force), the grid methods
+// Algorithm 1's (mass matrix, the sub-step's velocity increment).
+std::unique_ptr<impl::BatchStepperBase> snapshot_stepper(const Model& model, const std::string& scene_path,
+                                                         const Scene& scene, const RomSettings& settings,
+                                                         const std::vector<RolloutCase>& cases,
+                                                         const std::vector<int>& points) {
+  RomSettings sampled = settings;
+  sampled.method = settings.method == RomMethod::Galerkin ? RomMethod::Galerkin : RomMethod::MaterialPoint;
+  sampled.samples = points.size() == model.num_points() ? 0 : int(points.size());
+  sampled.weighting = SampleWeighting::Mass;
+  sampled.end_time = 0;  // the training runs' horizon, whatever the rollouts' own (--end-time)
+  const HyperReduction reduction = build_hyper_reduction(model, scene, sampled, points);
+  return impl::create_stepper(model, scene_path, scene.design.names, cases, sampled, reduction);
+}
+
+std::vector<int> every_point(const Model& model) {
   std::vector<int> every(model.num_points());
   std::iota(every.begin(), every.end(), 0);
-  const HyperReduction reduction = build_hyper_reduction(model, scene, all_points, every);
-  return impl::create_stepper(model, scene_path, scene.design.names, cases, all_points, reduction);
+  return every;
 }
 
 // Hands each running rollout's last sub-step to use: J of its final pass with the velocity that sub-step added to
-// the manifold's (the part the projection has to get right), or the Galerkin step's momentum and reduced force.
-void use_last_substep(const impl::BatchStepperBase& stepper, std::size_t P, bool galerkin,
-                      const std::function<void(const PointSnapshot&)>& use) {
+// the manifold's (the part the projection has to get right), or the Galerkin step's momentum and reduced force, at
+// the stepper's samples: every point, or `points` (the candidates) standing for mass_scale times their masses.
+void use_last_substep(const impl::BatchStepperBase& stepper, const std::vector<int>* points, double mass_scale,
+                      std::size_t P, bool galerkin, const std::function<void(const PointSnapshot&)>& use) {
   const int r = stepper.latent_dim();
+  const std::size_t S = points ? points->size() : P;
   const auto inputs = stepper.last_projection_inputs();
-  std::vector<double> increment(P * 3);
+  std::vector<double> increment(S * 3);
   for (int b = 0; b < stepper.rollouts(); ++b) {
     if (stepper.flags(b) & rom::fatal_flags) continue;
-    const double* J = &inputs.J[std::size_t(b) * P * 3 * std::size_t(r)];
+    const double* J = &inputs.J[std::size_t(b) * S * 3 * std::size_t(r)];
     if (galerkin) {
-      use({J, {&inputs.velocity[std::size_t(b) * P * 3]}, &inputs.force[std::size_t(b) * P * std::size_t(r)]});
+      use({J,
+           {&inputs.velocity[std::size_t(b) * S * 3]},
+           &inputs.force[std::size_t(b) * S * std::size_t(r)],
+           points,
+           mass_scale});
       continue;
     }
     const double* rate = &inputs.rate_before[std::size_t(b) * std::size_t(r)];
-    for (std::size_t i = 0; i < P * 3; ++i) {
+    for (std::size_t i = 0; i < S * 3; ++i) {
       double v = 0;
       for (int q = 0; q < r; ++q) v += J[i * std::size_t(r) + std::size_t(q)] * rate[q];
-      increment[i] = inputs.velocity[std::size_t(b) * P * 3 + i] - v;
+      increment[i] = inputs.velocity[std::size_t(b) * S * 3 + i] - v;
     }
-    use({J, {increment.data()}});
+    use({J, {increment.data()}, nullptr, points, mass_scale});
   }
 }
 
@@ -99,9 +111,10 @@ SnapshotStream reduced_motion(const Model& model, const std::string& scene_path,
   return [&model, scene_path, settings, max_rollouts](const std::function<void(const PointSnapshot&)>& use) {
     const Scene scene = load_scene(scene_path);
     std::vector<int> indices;
-    auto stepper = all_point_stepper(model, scene_path, scene, settings, training_cases(scene, max_rollouts, indices));
+    auto stepper = snapshot_stepper(model, scene_path, scene, settings, training_cases(scene, max_rollouts, indices),
+                                    every_point(model));
     while (stepper->advance_frame())
-      use_last_substep(*stepper, model.num_points(), settings.method == RomMethod::Galerkin, use);
+      use_last_substep(*stepper, nullptr, 1, model.num_points(), settings.method == RomMethod::Galerkin, use);
   };
 }
 
@@ -119,15 +132,28 @@ std::vector<std::size_t> codes_of_run(const Model& model, int index) {
   return codes;
 }
 
-// One all-point sub-step from the model's own training states: for up to max_rollouts training runs of the scene's
-// design, at every inner output frame, xhat the run's code there and xhatdot the central difference of its codes
-// (as training defines the rate). Each snapshot costs one sub-step, not a rollout: the source that scales.
+// One sub-step from the model's own training states (every point, or the candidates of a larger body): for up to
+// max_rollouts training runs of the scene's design, at every inner output frame, xhat the run's code there and
+// xhatdot the central difference of its codes (as training defines the rate). Each snapshot costs one sub-step, not
+// a rollout: the source that scales.
 SnapshotStream training_states(const Model& model, const std::string& scene_path, const RomSettings& settings,
-                               std::size_t max_rollouts) {
-  return [&model, scene_path, settings, max_rollouts](const std::function<void(const PointSnapshot&)>& use) {
+                               std::size_t max_rollouts, std::size_t max_candidates) {
+  return [&model, scene_path, settings, max_rollouts,
+          max_candidates](const std::function<void(const PointSnapshot&)>& use) {
     const Scene scene = load_scene(scene_path);
     std::vector<int> indices;
-    auto stepper = all_point_stepper(model, scene_path, scene, settings, training_cases(scene, max_rollouts, indices));
+    // A body larger than the candidates is sampled at them alone (J at 2048 points instead of every one).
+    const std::vector<int> candidates = impl::all_candidates(model, max_candidates);
+    const bool sampled = candidates.size() < model.num_points();
+    double mass_scale = 1;
+    if (sampled) {
+      double all = 0, picked = 0;
+      for (const double m : model.mass) all += m;
+      for (const int c : candidates) picked += model.mass[std::size_t(c)];
+      mass_scale = all / picked;
+    }
+    auto stepper = snapshot_stepper(model, scene_path, scene, settings, training_cases(scene, max_rollouts, indices),
+                                    sampled ? candidates : every_point(model));
     const std::size_t r = std::size_t(model.latent_dim);
     std::vector<std::vector<std::size_t>> codes;
     for (const int index : indices) codes.push_back(codes_of_run(model, index));
@@ -151,7 +177,8 @@ SnapshotStream training_states(const Model& model, const std::string& scene_path
       }
       stepper->restore(state);
       stepper->probe_substep();
-      use_last_substep(*stepper, model.num_points(), settings.method == RomMethod::Galerkin, use);
+      use_last_substep(*stepper, sampled ? &candidates : nullptr, mass_scale, model.num_points(),
+                       settings.method == RomMethod::Galerkin, use);
     }
   };
 }
@@ -160,17 +187,33 @@ SnapshotStream training_states(const Model& model, const std::string& scene_path
 
 namespace impl {
 
+std::vector<std::size_t> PointSnapshot::rows_of(const std::vector<int>& wanted) const {
+  std::vector<std::size_t> rows;
+  if (!points) return {wanted.begin(), wanted.end()};
+  for (const int p : wanted) {
+    const auto it = std::lower_bound(points->begin(), points->end(), p);  // the candidates are in increasing order
+    if (it == points->end() || *it != p)
+      throw std::invalid_argument("offline fit: point " + std::to_string(p) +
+                                  " is not among the snapshots' candidate points (on a body this large the snapshots "
+                                  "hold the candidates alone: use --selection greedy-projection or cubature)");
+    rows.push_back(std::size_t(it - points->begin()));
+  }
+  return rows;
+}
+
 SnapshotStream snapshot_stream(const Model& model, const CubatureSnapshots& snapshots) {
   if (snapshots.data != nullptr) return training_runs(model, *snapshots.data, snapshots.count);
   if (snapshots.scene_path.empty())
     throw std::invalid_argument("cubature: neither training runs nor a scene to roll the reduced model out on");
   if (snapshots.settings.snapshot_source == SnapshotSource::States)
-    return training_states(model, snapshots.scene_path, snapshots.settings, snapshots.count);
+    return training_states(model, snapshots.scene_path, snapshots.settings, snapshots.count, snapshots.max_candidates);
   return reduced_motion(model, snapshots.scene_path, snapshots.settings, snapshots.count);
 }
 
-std::vector<int> all_candidates(const Model& model) {
-  const std::size_t P = model.num_points(), stride = std::max<std::size_t>(1, (P + 2047) / 2048);
+std::vector<int> all_candidates(const Model& model, std::size_t max_candidates) {
+  const std::size_t P = model.num_points();
+  const std::size_t stride =
+      std::max<std::size_t>(1, (P + max_candidates - 1) / std::max<std::size_t>(1, max_candidates));
   std::vector<int> candidates;
   for (std::size_t p = 0; p < P; p += stride) candidates.push_back(int(p));
   return candidates;

@@ -229,6 +229,21 @@ TEST_F(RolloutBatchApi, GreedyProjectionSelectionApproachesTheAllPointProjection
     const CubatureFit every = greedy_projection_selection(model, snapshots, model.num_points());
     EXPECT_LT(every.misfits[0], 1e-6) << source;
   }
+  // A body larger than the candidates: the training-state snapshots hold the candidates alone, whose projection
+  // is then the reference (all of them taken: no error); a fit that needs other points' rows is refused.
+  CubatureSnapshots sampled = states;
+  sampled.max_candidates = model.num_points() / 3;
+  const CubatureFit few = greedy_projection_selection(model, sampled, 4);
+  ASSERT_EQ(few.samples.size(), 4u);
+  EXPECT_GT(few.misfits[0], 0.0);
+  const CubatureFit all_candidates = greedy_projection_selection(model, sampled, sampled.max_candidates + 1);
+  EXPECT_LT(all_candidates.misfits[0], 1e-6);
+  EXPECT_LE(all_candidates.samples.size(), sampled.max_candidates + 1);
+  std::vector<int> outside(1, -1);
+  for (int p = 0; outside[0] < 0; ++p)
+    if (std::find(all_candidates.samples.begin(), all_candidates.samples.end(), p) == all_candidates.samples.end())
+      outside[0] = p;
+  EXPECT_THROW(cubature_weights(model, sampled, outside), std::invalid_argument);
   CubatureSnapshots galerkin = reduced;
   galerkin.settings.method = RomMethod::Galerkin;
   try {

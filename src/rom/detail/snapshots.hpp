@@ -10,20 +10,30 @@
 
 namespace mpmrom::impl {
 
-// One snapshot at every point: dg/dxhat (P, 3, r), the fields whose projections J^T (field) the samples must
-// reproduce (each (P, 3)) and, for the Galerkin step, each point's reduced force per unit mass (P, r; null: none).
+// One snapshot, a row per point: dg/dxhat (rows, 3, r), the fields whose projections J^T (field) the samples must
+// reproduce (each (rows, 3)) and, for the Galerkin step, each point's reduced force per unit mass (rows, r; null:
+// none). The rows are every point (points null) or, on a body larger than the offline candidates, the candidates
+// alone (points: their indices, all_candidates): each row then stands for mass_scale times its mass, so that the
+// rows' mass-weighted sums are a quadrature of the all-point ones.
 struct PointSnapshot {
   const double* J;
   std::vector<const double*> fields;
   const double* reduced = nullptr;
+  const std::vector<int>* points = nullptr;
+  double mass_scale = 1;
   std::size_t blocks() const { return fields.size() + (reduced != nullptr ? 1 : 0); }
+  std::size_t rows(std::size_t num_points) const { return points ? points->size() : num_points; }
+  std::size_t point(std::size_t row) const { return points ? std::size_t((*points)[row]) : row; }
+  // The rows of the given points; throws std::invalid_argument when one has none.
+  std::vector<std::size_t> rows_of(const std::vector<int>& wanted) const;
 };
 using SnapshotStream = std::function<void(const std::function<void(const PointSnapshot&)>&)>;
 
 // The snapshots `snapshots` describes: the full-order runs, the all-point reduced motion or its training states.
 SnapshotStream snapshot_stream(const Model& model, const CubatureSnapshots& snapshots);
 
-// Every point, or 2048 spread evenly over a larger body: the candidates of the offline selections.
-std::vector<int> all_candidates(const Model& model);
+// Every point, or at most max_candidates spread evenly over a larger body (in increasing order): the candidates of
+// the offline selections.
+std::vector<int> all_candidates(const Model& model, std::size_t max_candidates);
 
 }  // namespace mpmrom::impl
