@@ -68,38 +68,89 @@ std::vector<int> reached_nodes(const Motion& m, const std::vector<int>& samples)
   return nodes;
 }
 
+struct Box {
+  int lo[3], hi[3];
+};
+
+bool intersect(const Box& a, const Box& b, Box& out) {
+  for (int d = 0; d < 3; ++d) {
+    out.lo[d] = std::max(a.lo[d], b.lo[d]);
+    out.hi[d] = std::min(a.hi[d], b.hi[d]);
+    if (out.lo[d] > out.hi[d]) return false;
+  }
+  return true;
+}
+
+// The samples' stencils at each training code, and the nodes a point's own reach shares with them. A few samples
+// are tested box by box (a point's test costs the samples); many are marked per code, a bit a node (it costs the
+// point's own stencil, whatever the number of samples: the 2048 candidates of the offline fits, or every point).
+class SampleStencils {
+ public:
+  SampleStencils(const Motion& m, const std::vector<int>& samples)
+      : m_(m), S_(samples.size()), few_(samples.size() <= few_samples) {
+    const std::size_t C = m.C;
+    if (few_)
+      boxes_.resize(C * S_);
+    else
+      words_ = (std::size_t(m.grid.num_nodes()) + 63) / 64, marks_.assign(C * words_, 0);
+    for (std::size_t c = 0; c < C; ++c)
+      for (std::size_t k = 0; k < S_; ++k) {
+        Box b;
+        m.reach_from(c, std::size_t(samples[k]), b.lo, b.hi);
+        if (few_)
+          boxes_[c * S_ + k] = b;
+        else
+          for_each_node(m.grid, b.lo, b.hi, [&](int node) {
+            marks_[c * words_ + std::size_t(node) / 64] |= std::uint64_t(1) << (node % 64);
+          });
+      }
+  }
+  // visit(node) for each node of `own` (a point's reach at code c) in some sample's stencil at c (repeats possible).
+  template <class Visit>
+  void shared_nodes(std::size_t c, const Box& own, Visit&& visit) const {
+    if (!few_) {
+      const std::uint64_t* marks = &marks_[c * words_];
+      for_each_node(m_.grid, own.lo, own.hi, [&](int node) {
+        if ((marks[std::size_t(node) / 64] >> (node % 64)) & 1) visit(node);
+      });
+      return;
+    }
+    Box shared;
+    for (std::size_t k = 0; k < S_; ++k)
+      if (intersect(own, boxes_[c * S_ + k], shared)) for_each_node(m_.grid, shared.lo, shared.hi, visit);
+  }
+
+ private:
+  // Below this, S box tests cost less than visiting a point's stencil (up to 5 x 5 x 5 nodes with the margin).
+  static constexpr std::size_t few_samples = 64;
+  const Motion& m_;
+  std::size_t S_;
+  bool few_;
+  std::vector<Box> boxes_;
+  std::size_t words_ = 0;
+  std::vector<std::uint64_t> marks_;
+};
+
 // Algorithm 1. Sources: the samples, then their co-moving neighbours N: every point that, at some training code,
 // reaches a node of a sample's stencil at that same code (a point passing through where a sample was at another time
 // never shares its nodes). Node n gathers from p if p reaches n while n is in a sample's stencil; at run time the
 // nodes around the samples are then complete, and the other nodes of I, incomplete, are never read by G2P.
-// slot: each grid node's index in I (-1: not in I). The samples' stencils are marked per code (a bit a node), so
-// each point's test costs its own stencil: O((points + samples) x codes x stencil), whatever the number of samples.
+// slot: each grid node's index in I (-1: not in I).
 void gather_comoving_sources(const Motion& m, const std::vector<int>& samples, const std::vector<int>& slot,
                              HyperReduction& h, std::vector<std::vector<int>>& gather) {
-  const std::size_t C = m.C, words = (std::size_t(m.grid.num_nodes()) + 63) / 64;
   std::vector<int> source_of(m.P, -1);
   for (const int k : samples) {
     source_of[k] = int(h.source_points.size());
     h.source_points.push_back(k);
   }
-  std::vector<std::uint64_t> in_stencil(C * words, 0);  // code c, node n: bit n of word c * words + n / 64
-  for (const int s : samples)
-    for (std::size_t c = 0; c < C; ++c) {
-      int lo[3], hi[3];
-      m.reach_from(c, std::size_t(s), lo, hi);
-      for_each_node(m.grid, lo, hi, [&](int node) {
-        in_stencil[c * words + std::size_t(node) / 64] |= std::uint64_t(1) << (node % 64);
-      });
-    }
+  const SampleStencils stencils(m, samples);
   std::vector<int> last(gather.size(), -1), reached;
   for (std::size_t p = 0; p < m.P; ++p) {
     reached.clear();
-    for (std::size_t c = 0; c < C; ++c) {
-      int lo[3], hi[3];
-      m.reach_from(c, p, lo, hi);
-      const std::uint64_t* marks = &in_stencil[c * words];
-      for_each_node(m.grid, lo, hi, [&](int node) {
-        if (!((marks[std::size_t(node) / 64] >> (node % 64)) & 1)) return;
+    for (std::size_t c = 0; c < m.C; ++c) {
+      Box own;
+      m.reach_from(c, p, own.lo, own.hi);
+      stencils.shared_nodes(c, own, [&](int node) {
         const int n = slot[std::size_t(node)];
         if (last[std::size_t(n)] != int(p)) last[std::size_t(n)] = int(p), reached.push_back(n);
       });
