@@ -170,11 +170,13 @@ HyperReduction build_hyper_reduction(const Model& model, const Scene& scene, con
 // Everything settings ask of the hyper-reduction: the samples (select_samples, or the greedy projection's: the
 // model's stored set when it has one of settings.samples, else fitted to the snapshots), their sets, and their
 // weights (fitted_weights). data: the training runs, for --data / --cubature-snapshots full. log receives one line
-// per fit (what it fitted and its relative error); may be empty. selector, if given, holds the snapshots of these
-// settings already gathered (a study that selects several counts on one model).
+// per fit (what it fitted and its relative error); may be empty. selector, if given, is asked for the snapshots of
+// these settings only when a set must be fitted (a study's cache, for several counts on one model). The stored set
+// applies at the time step and projection it was fitted with (the defaults); other steps fit their own.
+using SelectorSource = std::function<const ProjectionSelector&(const RomSettings&)>;
 HyperReduction prepare_hyper_reduction(const Model& model, const Scene& scene, const RomSettings& settings,
                                        const TrainingData* data, const std::function<void(const std::string&)>& log,
-                                       const ProjectionSelector* selector = nullptr);
+                                       const SelectorSource& selector = {});
 
 // The snapshots the stored set is fitted to: the reduced motion on the scene with RomSettings' defaults.
 ProjectionSelector default_projection_selector(const Model& model, const Scene& scene);

@@ -20,17 +20,34 @@ std::string misfit_list(const std::vector<double>& misfits) {
   return text;
 }
 
-// The model's stored greedy projection set, when it is the one settings ask for.
-bool stored_set_applies(const Model& model, const RomSettings& settings) {
+// The settings the stored set is fitted with (store_projection_samples, default_projection_selector).
+RomSettings stored_set_settings() {
+  RomSettings settings;
+  settings.selection = SampleSelection::GreedyProjection;
+  settings.snapshot_source = SnapshotSource::Reduced;
+  return settings;
+}
+
+// Whether a and b take the same all-point reduced step, the motion the greedy projection fits its set to.
+bool same_projection_step(const RomSettings& a, const RomSettings& b, const Scene& scene) {
+  const auto cfl = [&scene](const RomSettings& s) { return s.cfl > 0 ? s.cfl : scene.cfl; };
+  return cfl(a) == cfl(b) && a.projection_iterations == b.projection_iterations && a.projection == b.projection &&
+         a.rate_damping == b.rate_damping;
+}
+
+// The model's stored greedy projection set, when it is the one settings ask for: its count, fitted to the same step
+// (a set fitted at one time step can be a poor one at another: docs/results/rom/README.md).
+bool stored_set_applies(const Model& model, const Scene& scene, const RomSettings& settings) {
   return settings.selection == SampleSelection::GreedyProjection &&
          settings.snapshot_source == SnapshotSource::Reduced && settings.samples > 0 &&
-         model.projection_samples.size() == std::size_t(settings.samples);
+         model.projection_samples.size() == std::size_t(settings.samples) &&
+         same_projection_step(settings, stored_set_settings(), scene);
 }
 
 // The samples and (where the selection fits them) weights of the selections that choose both together.
 CubatureFit joint_selection(const Model& model, const Scene& scene, const RomSettings& settings,
                             const TrainingData* data, const std::function<void(const std::string&)>& log,
-                            const ProjectionSelector* selector) {
+                            const SelectorSource& selector) {
   CubatureFit selected;
   if (settings.samples <= 0) return selected;
   const auto say = [&log](const std::string& line) {
@@ -41,7 +58,7 @@ CubatureFit joint_selection(const Model& model, const Scene& scene, const RomSet
     throw std::invalid_argument(
         "--method galerkin needs another --selection (greedy, cubature, region or random): greedy-projection, the "
         "default, fits the grid step of --method point and node");
-  if (stored_set_applies(model, settings)) {
+  if (stored_set_applies(model, scene, settings)) {
     for (std::size_t k = 0; k < model.projection_samples.size(); ++k) {
       const auto p = std::size_t(model.projection_samples[k]);
       selected.samples.push_back(int(p));
@@ -53,8 +70,8 @@ CubatureFit joint_selection(const Model& model, const Scene& scene, const RomSet
     say("greedy projection: fitting " + std::to_string(settings.samples) +
         " samples to the all-point reduced model's sub-steps (" + to_string(settings.snapshot_source) +
         " snapshots; `mpmrom train --scene` stores a set of " + std::to_string(RomSettings{}.samples) +
-        " with the model)");
-    selected = selector ? selector->select(std::size_t(settings.samples), fit)
+        " with the model, for the default time step and projection)");
+    selected = selector ? selector(settings).select(std::size_t(settings.samples), fit)
                         : ProjectionSelector(model, cubature_snapshots(scene, settings, data))
                               .select(std::size_t(settings.samples), fit);
     say("greedy projection: relative error" + misfit_list(selected.misfits) +
@@ -70,7 +87,7 @@ CubatureFit joint_selection(const Model& model, const Scene& scene, const RomSet
 
 HyperReduction prepare_hyper_reduction(const Model& model, const Scene& scene, const RomSettings& settings,
                                        const TrainingData* data, const std::function<void(const std::string&)>& log,
-                                       const ProjectionSelector* selector) {
+                                       const SelectorSource& selector) {
   const CubatureFit selected = joint_selection(model, scene, settings, data, log, selector);
   const auto samples = selected.samples.empty() ? select_samples(model, scene, settings, data) : selected.samples;
   HyperReduction reduction = build_hyper_reduction(model, scene, settings, samples);
@@ -89,10 +106,7 @@ HyperReduction prepare_hyper_reduction(const Model& model, const Scene& scene, c
 }
 
 ProjectionSelector default_projection_selector(const Model& model, const Scene& scene) {
-  RomSettings settings;
-  settings.selection = SampleSelection::GreedyProjection;
-  settings.snapshot_source = SnapshotSource::Reduced;
-  return ProjectionSelector(model, cubature_snapshots(scene, settings, nullptr));
+  return ProjectionSelector(model, cubature_snapshots(scene, stored_set_settings(), nullptr));
 }
 
 void store_projection_samples(Model& model, const ProjectionSelector& selector, std::size_t count,

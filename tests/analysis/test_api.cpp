@@ -285,6 +285,26 @@ TEST_F(RolloutBatchApi, StoredProjectionSetIsTheDefaultHyperReduction) {
   EXPECT_EQ(other_count.weights, five.weights);
   s.selection = SampleSelection::Region;  // auto weights: the masses for a selection that fits none
   EXPECT_TRUE(prepare_hyper_reduction(model, scene, s, nullptr, {}).weights.empty());
+  // The stored count at another time step: fitted to that step's motion, not the stored set; the scene's own CFL
+  // number given explicitly is the default step, and the stored set applies.
+  s = settings();
+  s.cfl = 3 * scene.cfl;
+  CubatureSnapshots at_cfl = cubature_snapshots(scene, s, nullptr);
+  at_cfl.settings.weighting = SampleWeighting::Cubature;
+  const CubatureFit refit = greedy_projection_selection(model, at_cfl, std::size_t(s.samples));
+  const ProjectionSelector selector(model, at_cfl);
+  int asked = 0;
+  const auto count_asks = [&](const RomSettings&) -> const ProjectionSelector& {
+    ++asked;
+    return selector;
+  };
+  const HyperReduction other_step = prepare_hyper_reduction(model, scene, s, nullptr, {}, count_asks);
+  EXPECT_EQ(asked, 1);
+  EXPECT_EQ(other_step.samples, refit.samples);
+  EXPECT_EQ(other_step.weights, refit.weights);
+  s.cfl = scene.cfl;
+  EXPECT_EQ(prepare_hyper_reduction(model, scene, s, nullptr, {}, count_asks).samples, stored.samples);
+  EXPECT_EQ(asked, 1);  // the stored set: no snapshots asked for
 }
 
 // `mpmrom evaluate` against a fresh sweep of new parameter points, all of them marked test: every rollout finds its

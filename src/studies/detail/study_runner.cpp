@@ -19,18 +19,19 @@ RomSettings StudyRunner::rom_settings(RomMethod method, int samples, double cfl)
 
 HyperReduction StudyRunner::hyper_reduction(const Model& model, const RomSettings& rom, const TrainingData* data,
                                             const std::function<void(const std::string&)>& log) const {
-  const bool fitted = rom.selection == SampleSelection::GreedyProjection && rom.samples > 0 &&
-                      rom.method != RomMethod::Galerkin && rom.snapshot_source != SnapshotSource::Full &&
-                      model.projection_samples.size() != std::size_t(rom.samples);
-  return prepare_hyper_reduction(model, scene_, rom, data, log, fitted ? &selector(model, rom) : nullptr);
+  const auto cached = [this, &model, data](const RomSettings& fitted) -> const ProjectionSelector& {
+    return selector(model, fitted, data);
+  };
+  return prepare_hyper_reduction(model, scene_, rom, data, log, cached);
 }
 
-const ProjectionSelector& StudyRunner::selector(const Model& model, const RomSettings& rom) const {
+const ProjectionSelector& StudyRunner::selector(const Model& model, const RomSettings& rom,
+                                                const TrainingData* data) const {
   nlohmann::json step = rom.to_json();
   for (const char* choice : {"samples", "selection", "seed", "weights", "end_time"}) step.erase(choice);
   const std::string key = std::to_string(model_checksum(model)) + step.dump();
   if (!selector_ || key != selector_key_) {
-    selector_ = std::make_shared<const ProjectionSelector>(model, cubature_snapshots(scene_, rom, nullptr));
+    selector_ = std::make_shared<const ProjectionSelector>(model, cubature_snapshots(scene_, rom, data));
     selector_key_ = key;
   }
   return *selector_;

@@ -36,8 +36,11 @@ class StudyRunner {
   std::string scene_path_;
   Scene scene_;
   SampleSelection selection_;
+  // The greedy projection's snapshots of rom's step on model, kept for the next call with the same (the study's
+  // training runs, data, do not change between calls).
+  const ProjectionSelector& selector(const Model& model, const RomSettings& rom,
+                                     const TrainingData* data = nullptr) const;
   // The last greedy projection snapshots and what they were gathered for (model checksum, step settings).
-  const ProjectionSelector& selector(const Model& model, const RomSettings& rom) const;
   mutable std::string selector_key_;
   mutable std::shared_ptr<const ProjectionSelector> selector_;
 };
