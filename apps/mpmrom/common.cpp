@@ -63,8 +63,10 @@ void report_training(const TrainingProgress& p, bool quiet) {
   if (quiet) return;
   const int twentieth = std::max(1, p.epochs / 20);
   if (!every_progress_line() && !p.validated && p.epoch % twentieth != 0 && p.epoch != p.epochs) return;
-  std::fprintf(stderr, "  epoch %d/%d  loss %.3e (x %.2e F %.2e v %.2e)", p.epoch, p.epochs, p.train.total,
+  std::fprintf(stderr, "  epoch %d/%d  loss %.3e (x %.2e F %.2e v %.2e", p.epoch, p.epochs, p.train.total,
                p.train.position, p.train.gradient, p.train.velocity);
+  if (p.train.affine > 0) std::fprintf(stderr, " C %.2e", p.train.affine);
+  std::fprintf(stderr, ")");
   if (p.validated) std::fprintf(stderr, "  validation %.3e", p.validation.total);
   std::fprintf(stderr, "  lr %.1e  %.3g samples/s  %s left\n", p.learning_rate, p.samples_per_second,
                duration_string(p.seconds_left).c_str());

@@ -46,13 +46,15 @@ int train(const TrainOptions& o, const Context& context) {
   const auto& world = context.world;
   mpmrom::require_writable_output(o.model_path);
   if (!quiet) std::cerr << "mpmrom train: reading " << o.train_inputs.size() << " input(s)\n";
-  const auto data = mpmrom::load_training_data(o.train_inputs);
+  const auto data = mpmrom::load_training_data(
+      o.train_inputs, {},
+      o.training.lambda_affine > 0 ? mpmrom::SnapshotFields::All : mpmrom::SnapshotFields::WithoutAffine);
   if (!quiet)
     std::cerr << "mpmrom train: " << data.train.runs.size() << " training runs, " << data.test.runs.size()
               << " test runs, " << data.train.runs.front().num_points << " points; r = " << o.training.latent_dim
               << ", " << o.training.depth << " layers of " << o.training.width
-              << ", lambda1 = " << o.training.lambda_gradient << ", lambda2 = " << o.training.lambda_velocity << ", "
-              << o.training.epochs << " epochs\n";
+              << ", lambda1 = " << o.training.lambda_gradient << ", lambda2 = " << o.training.lambda_velocity
+              << ", lambda3 = " << o.training.lambda_affine << ", " << o.training.epochs << " epochs\n";
   const std::string checkpoint = o.model_path + ".ckpt";
   mpmrom::TrainingCallbacks callbacks;
   callbacks.progress = [quiet](const mpmrom::TrainingProgress& p) { report_training(p, quiet); };
@@ -118,6 +120,8 @@ void add_train(CLI::App& app, Commands& commands) {
                 "lambda1: weight of the dg/dX - F misfit (relative)");
   add_defaulted(command, "--lambda-vel", o->training.lambda_velocity,
                 "lambda2: weight of the dg/dxhat xhatdot - v misfit (relative)");
+  add_defaulted(command, "--lambda-affine", o->training.lambda_affine,
+                "lambda3: weight of the Fdot - C F misfit, C the runs' APIC matrix (relative; not the paper's)");
   add_defaulted(command, "--epochs", o->training.epochs, "Epochs (each visits every training snapshot once)");
   add_defaulted(command, "--batch-snapshots", o->training.batch_snapshots, "Snapshots per minibatch");
   add_defaulted(command, "--points-per-snapshot", o->training.points_per_snapshot,

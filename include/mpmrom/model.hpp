@@ -46,7 +46,7 @@ struct Model {
   std::string scene_text;
   nlohmann::json settings = nlohmann::json::object();  // training settings, as given
   nlohmann::json errors = nlohmann::json::object();    // final train / validation / test errors
-  double loss_scales[3] = {1, 1, 1};                   // position, F, velocity: the RMS values loss (7) divides by
+  double loss_scales[4] = {1, 1, 1, 1};                // position, F, velocity, C F: the RMS values the loss divides by
   std::string precision;                               // of the build that wrote it (set on save)
 
   nn::MlpLayout layout() const { return nn::MlpLayout::make(latent_dim, width, depth); }

@@ -21,13 +21,15 @@ struct TrainingData {
 // Each input is a sweep directory (its design.csv's `split` column puts each run in train or test) or one snapshot
 // file (train). Every run must share the same reference points; throws std::runtime_error with one line otherwise
 // or on any unreadable input. on_file is told each file before it is read. Any split will do (e.g. reference runs
-// for evaluation, which may all be test runs).
+// for evaluation, which may all be test runs). fields: whether APIC's C is read too.
 TrainingData load_runs(const std::vector<std::string>& inputs,
-                       const std::function<void(const std::string&)>& on_file = {});
+                       const std::function<void(const std::string&)>& on_file = {},
+                       SnapshotFields fields = SnapshotFields::WithoutAffine);
 
 // load_runs for training: at least one run must be a training run.
 TrainingData load_training_data(const std::vector<std::string>& inputs,
-                                const std::function<void(const std::string&)>& on_file = {});
+                                const std::function<void(const std::string&)>& on_file = {},
+                                SnapshotFields fields = SnapshotFields::WithoutAffine);
 
 // The rows of a design.csv: the value of `column` in each row (throws if the file or the column is missing).
 std::vector<std::string> design_column(const std::string& csv_path, const std::string& column);

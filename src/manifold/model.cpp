@@ -116,6 +116,7 @@ void save_model(const std::string& path, const Model& m, const OptimizerState* o
     network.set_double_attribute("loss_position_scale", m.loss_scales[0]);
     network.set_double_attribute("loss_gradient_scale", m.loss_scales[1]);
     network.set_double_attribute("loss_velocity_scale", m.loss_scales[2]);
+    network.set_double_attribute("loss_affine_scale", m.loss_scales[3]);
 
     hdf5::Group latent = file.create_group("codes");
     latent.set_string_list_attribute("runs", m.runs);
@@ -198,6 +199,7 @@ Model load_model(const std::string& path, OptimizerState* optimizer) {
   m.loss_scales[0] = network.double_attribute("loss_position_scale");
   m.loss_scales[1] = network.double_attribute("loss_gradient_scale");
   m.loss_scales[2] = network.double_attribute("loss_velocity_scale");
+  if (network.has_attribute("loss_affine_scale")) m.loss_scales[3] = network.double_attribute("loss_affine_scale");
 
   const hdf5::Group latent = file.group("codes");
   m.runs = latent.string_list_attribute("runs");

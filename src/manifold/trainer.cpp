@@ -42,7 +42,8 @@ LossReport to_report(const nn::LossTerms<double>& sum, double samples, const Tra
   r.position = sum.position / samples;
   r.gradient = sum.gradient / samples;
   r.velocity = sum.velocity / samples;
-  r.total = r.position + s.lambda_gradient * r.gradient + s.lambda_velocity * r.velocity;
+  r.affine = sum.affine / samples;
+  r.total = r.position + s.lambda_gradient * r.gradient + s.lambda_velocity * r.velocity + s.lambda_affine * r.affine;
   return r;
 }
 
@@ -50,6 +51,7 @@ void accumulate(nn::LossTerms<double>& sum, const nn::LossTerms<T>& batch, int s
   sum.position += double(batch.position) * samples;
   sum.gradient += double(batch.gradient) * samples;
   sum.velocity += double(batch.velocity) * samples;
+  sum.affine += double(batch.affine) * samples;
 }
 
 // What the steps of one training run work with.
@@ -136,7 +138,7 @@ EpochSum train_epoch(const Training& t, GradientSum& gradient_sum, int epoch, co
         if (owned) point_ids.push_back(pool[j]);
       }
     }
-    nn::LossTerms<T> terms{0, 0, 0};
+    nn::LossTerms<T> terms;
     if (!snapshot_ids.empty())
       terms = batch_loss(t, snapshot_ids, rows, point_ids, n.per_snapshot, long(snaps) * n.per_snapshot, d.grad);
     else

@@ -24,6 +24,7 @@ struct TrainingSettings {
   int depth = 5;                      // affine layers (the paper's 5 layers)
   double lambda_gradient = 1.0;       // lambda1: weight of the F = dg/dX misfit, relative
   double lambda_velocity = 1.0;       // lambda2: weight of the dg/dxhat * xhatdot misfit, relative
+  double lambda_affine = 0.0;         // lambda3: weight of the Fdot - C F misfit (APIC's C), relative; not the paper's
   int epochs = 600;                   // each visits every training snapshot once
   int batch_snapshots = 8;            // snapshots per minibatch
   int points_per_snapshot = 128;      // material points drawn per snapshot visit
@@ -40,7 +41,7 @@ struct TrainingSettings {
 };
 
 struct LossReport {
-  double total = 0, position = 0, gradient = 0, velocity = 0;  // mean relative terms, total with the lambdas
+  double total = 0, position = 0, gradient = 0, velocity = 0, affine = 0;  // mean relative terms, total with lambdas
 };
 
 struct TrainingProgress {

@@ -9,9 +9,9 @@ namespace mpmrom {
 
 // The settings a model file records, each under its member's name; checkpoint_seconds is not one of them (it does
 // not change what training computes).
-NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(TrainingSettings, latent_dim, width, depth, lambda_gradient, lambda_velocity, epochs,
-                                   batch_snapshots, points_per_snapshot, learning_rate, final_learning_rate,
-                                   validation_fraction, validate_every, seed)
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(TrainingSettings, latent_dim, width, depth, lambda_gradient, lambda_velocity,
+                                   lambda_affine, epochs, batch_snapshots, points_per_snapshot, learning_rate,
+                                   final_learning_rate, validation_fraction, validate_every, seed)
 
 nlohmann::json TrainingSettings::to_json() const { return nlohmann::json(*this); }
 
@@ -24,6 +24,7 @@ void TrainingSettings::validate() const {
   };
   require(std::isfinite(lambda_gradient) && lambda_gradient >= 0, "lambda-grad must be >= 0");
   require(std::isfinite(lambda_velocity) && lambda_velocity >= 0, "lambda-vel must be >= 0");
+  require(std::isfinite(lambda_affine) && lambda_affine >= 0, "lambda-affine must be >= 0");
   require(epochs >= 1, "epochs must be >= 1");
   require(batch_snapshots >= 1, "batch-snapshots must be >= 1");
   require(points_per_snapshot >= 1, "points-per-snapshot must be >= 1");

@@ -63,7 +63,8 @@ std::vector<std::string> design_column(const std::string& csv_path, const std::s
   return values;
 }
 
-TrainingData load_runs(const std::vector<std::string>& inputs, const std::function<void(const std::string&)>& on_file) {
+TrainingData load_runs(const std::vector<std::string>& inputs, const std::function<void(const std::string&)>& on_file,
+                       SnapshotFields fields) {
   if (inputs.empty()) throw std::runtime_error("no full-order runs given");
   std::vector<std::pair<std::string, bool>> files;  // (path, test)
   for (const auto& input : inputs) {
@@ -88,7 +89,7 @@ TrainingData load_runs(const std::vector<std::string>& inputs, const std::functi
   for (const auto& [file, test] : files) {
     if (on_file) on_file(file);
     RunSet& set = test ? data.test : data.train;
-    set.runs.push_back(read_snapshot(file, SnapshotFields::WithoutAffine));
+    set.runs.push_back(read_snapshot(file, fields));
     set.files.push_back(file);
     if (first_file.empty()) {
       first_X = set.runs.back().X;
@@ -101,8 +102,8 @@ TrainingData load_runs(const std::vector<std::string>& inputs, const std::functi
 }
 
 TrainingData load_training_data(const std::vector<std::string>& inputs,
-                                const std::function<void(const std::string&)>& on_file) {
-  TrainingData data = load_runs(inputs, on_file);
+                                const std::function<void(const std::string&)>& on_file, SnapshotFields fields) {
+  TrainingData data = load_runs(inputs, on_file, fields);
   if (data.train.runs.empty()) throw std::runtime_error("no training runs among the inputs (all are test runs)");
   return data;
 }

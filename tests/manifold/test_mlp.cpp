@@ -180,30 +180,33 @@ void check_jacobians_against_finite_differences() {
 struct LossProblem {
   int r = 2, P = 6, S = 4, per_snapshot = 4;
   HostNetwork net;
-  std::vector<double> X, x, F, v;
+  std::vector<double> X, x, F, v, CF;
   std::vector<int> point, snapshot{2, 0, 3}, rate_from{0, 0, 2, 2}, rate_to{1, 1, 3, 3};
   std::vector<double> rate_inv_dt{10, 10, 20, 20};
   nn::LossWeights<double> weights;
 
-  LossProblem(double lambda_gradient, double lambda_velocity) {
+  LossProblem(double lambda_gradient, double lambda_velocity, double lambda_affine = 0) {
     net = random_network(r, 10, 4, S, 21);
     X = random_values(P * 3, -0.3, 0.3, 22);
     x = random_values(S * P * 3, -0.4, 0.4, 23);
     F = random_values(S * P * 9, 0.5, 1.5, 24);
     v = random_values(S * P * 3, -1, 1, 25);
+    CF = random_values(S * P * 9, -2, 2, 27);
     std::mt19937_64 rng(26);
     for (std::size_t i = 0; i < snapshot.size() * per_snapshot; ++i) point.push_back(int(rng() % P));
     weights.lambda_gradient = lambda_gradient;
     weights.lambda_velocity = lambda_velocity;
     weights.position_scale = 0.1;
     weights.gradient_scale = 0.3;
+    weights.lambda_affine = lambda_affine;
     weights.velocity_scale = 0.5;
+    weights.affine_scale = 0.8;
   }
 };
 
 template <class ExecutionSpace, class T>
 struct LossResult {
-  double loss;
+  double loss, affine_term;
   std::vector<double> grad;
 };
 
@@ -217,7 +220,8 @@ LossResult<ExecutionSpace, T> evaluate_loss(const LossProblem& problem, const st
   HostNetwork net = problem.net;
   net.params = params;
   auto d = to_device<T, Mem>(net);
-  const auto channels = nn::Channels::make(problem.weights.lambda_gradient > 0, problem.weights.lambda_velocity > 0);
+  const auto channels = nn::Channels::make(problem.weights.lambda_gradient > 0, problem.weights.lambda_velocity > 0,
+                                           problem.weights.lambda_affine > 0);
 
   auto ints = [](const std::vector<int>& values) {
     Kokkos::View<int*, Mem> view("ints", values.size());
@@ -243,9 +247,10 @@ LossResult<ExecutionSpace, T> evaluate_loss(const LossProblem& problem, const st
     batch.x = cube(problem.x, problem.S, problem.P, 3);
     batch.F = cube(problem.F, problem.S, problem.P, 9);
     batch.v = cube(problem.v, problem.S, problem.P, 3);
+    batch.CF = cube(problem.CF, problem.S, problem.P, 9);
   } else {
     std::vector<int> snapshots, rows, points;
-    std::vector<double> x, F, v;
+    std::vector<double> x, F, v, CF;
     const std::size_t P = std::size_t(problem.P), per = std::size_t(problem.per_snapshot);
     for (const int position : part) {
       const std::size_t s = std::size_t(problem.snapshot[std::size_t(position)]);
@@ -256,6 +261,7 @@ LossResult<ExecutionSpace, T> evaluate_loss(const LossProblem& problem, const st
       x.insert(x.end(), problem.x.begin() + long(s * P * 3), problem.x.begin() + long((s + 1) * P * 3));
       F.insert(F.end(), problem.F.begin() + long(s * P * 9), problem.F.begin() + long((s + 1) * P * 9));
       v.insert(v.end(), problem.v.begin() + long(s * P * 3), problem.v.begin() + long((s + 1) * P * 3));
+      CF.insert(CF.end(), problem.CF.begin() + long(s * P * 9), problem.CF.begin() + long((s + 1) * P * 9));
     }
     batch.point = ints(points);
     batch.snapshot = ints(snapshots);
@@ -263,6 +269,7 @@ LossResult<ExecutionSpace, T> evaluate_loss(const LossProblem& problem, const st
     batch.x = cube(x, int(rows.size()), problem.P, 3);
     batch.F = cube(F, int(rows.size()), problem.P, 9);
     batch.v = cube(v, int(rows.size()), problem.P, 3);
+    batch.CF = cube(CF, int(rows.size()), problem.P, 9);
     batch.total_samples = long(problem.point.size());
   }
 
@@ -283,6 +290,8 @@ LossResult<ExecutionSpace, T> evaluate_loss(const LossProblem& problem, const st
   weights.position_scale = T(problem.weights.position_scale);
   weights.gradient_scale = T(problem.weights.gradient_scale);
   weights.velocity_scale = T(problem.weights.velocity_scale);
+  weights.lambda_affine = T(problem.weights.lambda_affine);
+  weights.affine_scale = T(problem.weights.affine_scale);
 
   const int batch_snapshots = int(batch.snapshot.extent(0));
   nn::TrainingBuffers<T, Mem> buffers(ExecutionSpace(), net.layout, channels, batch_snapshots * problem.per_snapshot,
@@ -291,15 +300,18 @@ LossResult<ExecutionSpace, T> evaluate_loss(const LossProblem& problem, const st
   const auto terms = nn::minibatch_loss(ExecutionSpace(), d.mlp, table, channels, weights, batch, buffers, grad);
   LossResult<ExecutionSpace, T> result;
   result.loss = double(terms.position) + problem.weights.lambda_gradient * double(terms.gradient) +
-                problem.weights.lambda_velocity * double(terms.velocity);
+                problem.weights.lambda_velocity * double(terms.velocity) +
+                problem.weights.lambda_affine * double(terms.affine);
+  result.affine_term = double(terms.affine);
   auto grad_host = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), grad);
   result.grad.assign(grad_host.data(), grad_host.data() + grad_host.size());
   return result;
 }
 
 template <class ExecutionSpace>
-void check_loss_gradient_against_finite_differences(double lambda_gradient, double lambda_velocity) {
-  const LossProblem problem(lambda_gradient, lambda_velocity);
+void check_loss_gradient_against_finite_differences(double lambda_gradient, double lambda_velocity,
+                                                    double lambda_affine = 0) {
+  const LossProblem problem(lambda_gradient, lambda_velocity, lambda_affine);
   const auto exact = evaluate_loss<ExecutionSpace, double>(problem, problem.net.params, true);
   ASSERT_EQ(exact.grad.size(), problem.net.params.size());
   // Central differences in double: rounding of the loss is eps |loss| / h, truncation h^2 |loss'''| / 6 with
@@ -320,12 +332,12 @@ void check_loss_gradient_against_finite_differences(double lambda_gradient, doub
   }
   // Codes 0, 2, 3 are in the batch and codes 1 and 3 enter through the rates: with a velocity term every code has a
   // gradient, without one code 1 has none.
-  EXPECT_EQ(checked_codes, problem.r * (lambda_velocity > 0 ? 4 : 3));
+  EXPECT_EQ(checked_codes, problem.r * (lambda_velocity > 0 || lambda_affine > 0 ? 4 : 3));
 }
 
 template <class ExecutionSpace>
-void check_float_matches_double() {
-  const LossProblem problem(1.0, 1.0);
+void check_float_matches_double(double lambda_affine = 0) {
+  const LossProblem problem(1.0, 1.0, lambda_affine);
   const auto d = evaluate_loss<ExecutionSpace, double>(problem, problem.net.params, true);
   const auto f = evaluate_loss<ExecutionSpace, float>(problem, problem.net.params, true);
   double largest = 0;
@@ -470,6 +482,38 @@ void check_team_kinematics_match_serial() {
   }
 }
 
+// The training's mixed channels are the kinematics' Fdot: with C F targets set to SerialMlpKinematics' Fdot at each
+// sample's code and stencil rate, the affine term vanishes to rounding (against O(1) for the random targets).
+template <class ExecutionSpace>
+void check_affine_term_is_the_kinematics_fdot() {
+  LossProblem problem(0, 0, 1.0);
+  const auto host = to_device<double, Kokkos::HostSpace>(problem.net);
+  const int r = problem.r, num_weights = problem.net.layout.num_params;
+  const auto code = [&](int s, int q) { return problem.net.params[std::size_t(num_weights + s * r + q)]; };
+  for (std::size_t position = 0; position < problem.snapshot.size(); ++position) {
+    const int s = problem.snapshot[position];
+    std::vector<double> xhat(r), xhatdot(r);
+    for (int q = 0; q < r; ++q) {
+      xhat[q] = code(s, q);
+      xhatdot[q] = (code(problem.rate_to[s], q) - code(problem.rate_from[s], q)) * problem.rate_inv_dt[s];
+    }
+    for (std::size_t k = 0; k < std::size_t(problem.per_snapshot); ++k) {
+      const int p = problem.point[position * problem.per_snapshot + k];
+      nn::PointKinematics<double> kin;
+      nn::SerialMlpKinematics<64>(host.mlp, &problem.X[3 * p], xhat.data(), xhatdot.data(), kin,
+                                  static_cast<double*>(nullptr));
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) problem.CF[std::size_t((s * problem.P + p) * 9 + 3 * i + j)] = kin.Fdot[i][j];
+    }
+  }
+  const double random_term =
+      evaluate_loss<ExecutionSpace, double>(LossProblem(0, 0, 1.0), problem.net.params, false).affine_term;
+  const double term = evaluate_loss<ExecutionSpace, double>(problem, problem.net.params, false).affine_term;
+  ASSERT_GT(random_term, 0.1);
+  // The same products summed in another order: residuals of a few eps of Fdot's O(10) magnitude, squared.
+  EXPECT_LT(term, 1e-24);
+}
+
 template <class ExecutionSpace>
 class Mlp : public ::testing::Test {};
 // Data-parallel training: the minibatch split between two ranks (batch snapshot 0 on one, 1 and 2 on the other,
@@ -502,6 +546,12 @@ TYPED_TEST(Mlp, VelocityLossGradientMatchesFiniteDifferences) {
 TYPED_TEST(Mlp, FullLossGradientMatchesFiniteDifferences) {
   check_loss_gradient_against_finite_differences<TypeParam>(2.0, 0.7);
 }
+TYPED_TEST(Mlp, AffineLossGradientMatchesFiniteDifferences) {
+  check_loss_gradient_against_finite_differences<TypeParam>(0, 0, 1.3);
+  check_loss_gradient_against_finite_differences<TypeParam>(2.0, 0.7, 1.3);
+}
+TYPED_TEST(Mlp, AffineTermIsTheKinematicsFdot) { check_affine_term_is_the_kinematics_fdot<TypeParam>(); }
+TYPED_TEST(Mlp, AffineTermsFloatMatchesDouble) { check_float_matches_double<TypeParam>(1.3); }
 TYPED_TEST(Mlp, FloatKernelsMatchDouble) { check_float_matches_double<TypeParam>(); }
 TYPED_TEST(Mlp, GradientIsBitwiseReproducible) { check_gradient_is_deterministic<TypeParam>(); }
 TYPED_TEST(Mlp, SplitMinibatchSumsToTheWhole) { check_split_minibatch_sums_to_whole<TypeParam>(); }

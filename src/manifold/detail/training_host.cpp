@@ -29,6 +29,19 @@ void mean_and_scale(const std::vector<double>& values, double mean[3], double sc
   }
 }
 
+// C F of every point of every frame (row-major 3 x 3), the rate of F that the affine term asks Fdot to match.
+void append_affine_targets(const Snapshot& run, std::vector<double>& CF) {
+  const std::size_t n = run.num_frames * run.num_points;
+  if (run.C.size() != 9 * n) throw std::runtime_error("--lambda-affine needs the runs' APIC matrices C (not loaded)");
+  for (std::size_t e = 0; e < n; ++e)
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) {
+        double sum = 0;
+        for (int k = 0; k < 3; ++k) sum += run.C[9 * e + 3 * i + k] * run.F[9 * e + 3 * k + j];
+        CF.push_back(sum);
+      }
+}
+
 }  // namespace
 
 std::uint64_t epoch_seed(std::uint64_t seed, std::uint64_t epoch) {
@@ -61,6 +74,7 @@ Model start_model(const TrainingData& data, const TrainingSettings& settings, Tr
     targets.x.insert(targets.x.end(), runs[run].x.begin(), runs[run].x.end());
     targets.F.insert(targets.F.end(), runs[run].F.begin(), runs[run].F.end());
     targets.v.insert(targets.v.end(), runs[run].v.begin(), runs[run].v.end());
+    if (settings.lambda_affine > 0) append_affine_targets(runs[run], targets.CF);
   }
   return model;
 }
@@ -84,9 +98,12 @@ void set_scales(Model& model, const TrainingTargets& targets, const std::vector<
   const std::vector<double>&x = targets.x, &F = targets.F, &v = targets.v;
   std::vector<double> displacement;
   displacement.reserve(std::size_t(S) * training_points.size() * 3);
-  double sum_u2 = 0, sum_strain2 = 0, sum_v2 = 0;
+  double sum_u2 = 0, sum_strain2 = 0, sum_v2 = 0, sum_CF2 = 0;
   for (int s = 0; s < S; ++s)
     for (const int p : training_points) {
+      if (!targets.CF.empty())
+        for (int i = 0; i < 9; ++i)
+          sum_CF2 += targets.CF[(std::size_t(s) * P + p) * 9 + i] * targets.CF[(std::size_t(s) * P + p) * 9 + i];
       for (int d = 0; d < 3; ++d) {
         const double u = x[(std::size_t(s) * P + p) * 3 + d] - model.X[3 * p + d];
         displacement.push_back(u);
@@ -104,6 +121,7 @@ void set_scales(Model& model, const TrainingTargets& targets, const std::vector<
   model.loss_scales[0] = std::sqrt(sum_u2 / (3 * samples));
   model.loss_scales[1] = sum_strain2 > 0 ? std::sqrt(sum_strain2 / (9 * samples)) : 1.0;
   model.loss_scales[2] = sum_v2 > 0 ? std::sqrt(sum_v2 / (3 * samples)) : 1.0;
+  model.loss_scales[3] = sum_CF2 > 0 ? std::sqrt(sum_CF2 / (9 * samples)) : 1.0;
   mean_and_scale(model.X, model.standardization.input_mean, model.standardization.input_scale);
   mean_and_scale(displacement, model.standardization.output_mean, model.standardization.output_scale);
 }
@@ -143,7 +161,7 @@ void resume_from(const std::string& checkpoint_path, Model& model, OptimizerStat
   model.weights = checkpoint.weights;
   model.codes = checkpoint.codes;
   model.standardization = checkpoint.standardization;
-  std::copy(checkpoint.loss_scales, checkpoint.loss_scales + 3, model.loss_scales);
+  std::copy(checkpoint.loss_scales, checkpoint.loss_scales + 4, model.loss_scales);
   optimizer = saved;
 }
 

@@ -18,7 +18,7 @@ namespace mpmrom::impl {
 // the stencil of their code rates.
 struct TrainingTargets {
   RateStencil stencil;
-  std::vector<double> x, F, v;
+  std::vector<double> x, F, v, CF;  // CF: C F with APIC's C, only for lambda3 > 0
 };
 
 // Material points held out of training (to watch over-fitting) and those trained on, each sorted.

@@ -70,16 +70,22 @@ DeviceState upload_state(const Model& model, const OptimizerState& optimizer, Tr
   d.batch.x = upload<Cube>("mpmrom::train::x", owned_rows(targets.x, std::size_t(P) * 3), n.num_owned, P, 3);
   d.batch.F = upload<Cube>("mpmrom::train::F", owned_rows(targets.F, std::size_t(P) * 9), n.num_owned, P, 9);
   d.batch.v = upload<Cube>("mpmrom::train::v", owned_rows(targets.v, std::size_t(P) * 3), n.num_owned, P, 3);
+  if (!targets.CF.empty())
+    d.batch.CF = upload<Cube>("mpmrom::train::CF", owned_rows(targets.CF, std::size_t(P) * 9), n.num_owned, P, 9);
   targets.x.clear();
   targets.F.clear();
   targets.v.clear();
+  targets.CF.clear();
 
   d.weights.lambda_gradient = T(settings.lambda_gradient);
   d.weights.lambda_velocity = T(settings.lambda_velocity);
+  d.weights.lambda_affine = T(settings.lambda_affine);
+  d.weights.affine_scale = T(model.loss_scales[3]);
   d.weights.position_scale = T(model.loss_scales[0]);
   d.weights.gradient_scale = T(model.loss_scales[1]);
   d.weights.velocity_scale = T(model.loss_scales[2]);
-  d.channels = nn::Channels::make(settings.lambda_gradient > 0, settings.lambda_velocity > 0);
+  d.channels =
+      nn::Channels::make(settings.lambda_gradient > 0, settings.lambda_velocity > 0, settings.lambda_affine > 0);
   return d;
 }
 

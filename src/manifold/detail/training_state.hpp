@@ -57,9 +57,9 @@ class GradientSum {
 };
 
 inline void sum_over_ranks(const parallel::Communicator& comm, nn::LossTerms<double>& terms) {
-  double values[3] = {terms.position, terms.gradient, terms.velocity};
-  comm.sum(values, 3);
-  terms = {values[0], values[1], values[2]};
+  double values[4] = {terms.position, terms.gradient, terms.velocity, terms.affine};
+  comm.sum(values, 4);
+  terms = {values[0], values[1], values[2], values[3]};
 }
 
 // Device buffers of one minibatch shape, created on first use.

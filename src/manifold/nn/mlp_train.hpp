@@ -3,9 +3,10 @@
 //
 // The minibatch goes through the network layer by layer (one kernel per layer, activations of all samples kept),
 // carrying C channels per sample: channel 0 the primal values, then, when the loss needs them, three forward tangents
-// along X (for dg/dX) and one along the latent rate xhatdot (for dg/dxhat * xhatdot). The backward pass is reverse
-// mode through primal and tangents together. Every sum runs in a fixed order over a fixed partition of the
-// minibatch: no atomics, so a given backend gives bit-identical gradients run after run.
+// along X (for dg/dX), one along the latent rate xhatdot (for dg/dxhat * xhatdot) and three mixed second derivatives
+// d2/(dX_j dxhatdot) (for Fdot = dF/dxhat * xhatdot). The backward pass is reverse mode through all of them together.
+// Every sum runs in a fixed order over a fixed partition of the minibatch: no atomics, so a given backend gives
+// bit-identical gradients run after run.
 //
 // Activation views are (samples, channels, units), row-major. A minibatch holds `samples_per_snapshot` consecutive
 // samples of each of its snapshots: sample b belongs to batch snapshot b / samples_per_snapshot.
@@ -18,10 +19,9 @@
 #include "core/kokkos_compat.hpp"
 #include "manifold/nn/activation.hpp"
 #include "manifold/nn/mlp.hpp"
+#include "manifold/nn/mlp_loss.hpp"
 
 namespace mpmrom::nn {
-
-inline constexpr int max_channels = 5;
 
 // CPU backends take the row-wise variants of the layer kernels (one sample per thread, contiguous inner loops that
 // vectorise without reassociating sums); GPU backends take one output entry per thread (coalesced, no local arrays).
@@ -29,67 +29,6 @@ template <class ExecutionSpace>
 constexpr bool row_wise_kernels() {
   return Kokkos::SpaceAccessibility<ExecutionSpace, Kokkos::HostSpace>::accessible;
 }
-
-// Which forward tangents a minibatch carries.
-struct Channels {
-  int count = 1;
-  int gradient = -1;  // first of the three d/dX channels, -1 when lambda1 = 0
-  int velocity = -1;  // the d/dxhat * xhatdot channel, -1 when lambda2 = 0
-
-  static Channels make(bool with_gradient, bool with_velocity) {
-    Channels c;
-    if (with_gradient) {
-      c.gradient = c.count;
-      c.count += 3;
-    }
-    if (with_velocity) c.velocity = c.count++;
-    return c;
-  }
-};
-
-// Loss (7), each term made dimensionless by the training data's own scale (RMS displacement, RMS of F - I, RMS
-// velocity), so lambda1 and lambda2 weigh relative errors and do not depend on the scene's units:
-//   loss = mean over samples of |g - x|^2 / (3 sx^2) + lambda1 |dg/dX - F|^2 / (9 sF^2)
-//                                + lambda2 |dg/dxhat xhatdot - v|^2 / (3 sv^2).
-template <class T>
-struct LossWeights {
-  T lambda_gradient = 0;
-  T lambda_velocity = 0;
-  T position_scale = 1;
-  T gradient_scale = 1;
-  T velocity_scale = 1;
-};
-
-// The three mean terms (before the lambdas) of loss (7) over a set of samples.
-template <class T>
-struct LossTerms {
-  T position = 0, gradient = 0, velocity = 0;
-  KOKKOS_INLINE_FUNCTION LossTerms& operator+=(const LossTerms& o) {
-    position += o.position;
-    gradient += o.gradient;
-    velocity += o.velocity;
-    return *this;
-  }
-};
-
-template <class T, class MemorySpace>
-using Activations = Kokkos::View<T***, Kokkos::LayoutRight, MemorySpace>;  // (samples, channels, units)
-
-// Where a minibatch's samples come from and what they must match.
-template <class T, class MemorySpace>
-struct BatchSamples {
-  int samples_per_snapshot = 1;
-  Kokkos::View<const int*, MemorySpace> point;     // (samples): material point index
-  Kokkos::View<const int*, MemorySpace> snapshot;  // (batch snapshots): global snapshot index (its code)
-  Kokkos::View<const int*, MemorySpace> row;       // (batch snapshots): its row in x, F and v
-  // Samples the loss averages over: 0 for this minibatch's own; under data-parallel training, the whole minibatch's
-  // over every rank, so that the ranks' gradients sum to the whole minibatch's.
-  long total_samples = 0;
-  PointsView<T, MemorySpace> X;                                  // (points, 3) reference positions
-  Kokkos::View<const T***, Kokkos::LayoutRight, MemorySpace> x;  // (snapshots, points, 3) target positions
-  Kokkos::View<const T***, Kokkos::LayoutRight, MemorySpace> F;  // (snapshots, points, 9) target F, row-major
-  Kokkos::View<const T***, Kokkos::LayoutRight, MemorySpace> v;  // (snapshots, points, 3) target velocities
-};
 
 // Network input of every sample: [standardised X, xhat] on channel 0, e_d / input_scale_d on the X-tangent channels,
 // [0, xhatdot] on the velocity channel. codes, rates: (batch snapshots, r).
@@ -135,7 +74,7 @@ void layer_forward(const ExecutionSpace& space, const Mlp<T, MemorySpace>& mlp, 
     Kokkos::parallel_for(
         "mpmrom::nn::train::layer_forward", Kokkos::RangePolicy<ExecutionSpace>(space, 0, num_samples),
         KOKKOS_LAMBDA(const int b) {
-          T acc[max_width], slope[max_width];
+          T acc[max_width], slope[max_width], curvature[max_width];
           for (int c = 0; c < channels.count; ++c) {
             for (int i = 0; i < n_out; ++i) acc[i] = c == 0 ? mlp.bias(l, i) : T(0);
             for (int j = 0; j < n_in; ++j) {
@@ -149,10 +88,15 @@ void layer_forward(const ExecutionSpace& space, const Mlp<T, MemorySpace>& mlp, 
               for (int i = 0; i < n_out; ++i) {
                 T value;
                 elu_and_derivative(acc[i], value, slope[i]);
+                curvature[i] = acc[i] > T(0) ? T(0) : slope[i];  // elu'' = elu' = exp(a) below zero
                 H_next(b, 0, i) = value;
               }
-            } else {
+            } else if (channels.mixed_index(c) < 0) {
               for (int i = 0; i < n_out; ++i) H_next(b, c, i) = slope[i] * acc[i];
+            } else {  // d2 elu(a)/(dX_j dxhatdot) = elu' a_jv + elu'' a_j a_v (a_j, a_v written above)
+              const int j = channels.gradient + channels.mixed_index(c);
+              for (int i = 0; i < n_out; ++i)
+                H_next(b, c, i) = slope[i] * acc[i] + curvature[i] * A(b, j, i) * A(b, channels.velocity, i);
             }
           }
         });
@@ -171,8 +115,13 @@ void layer_forward(const ExecutionSpace& space, const Mlp<T, MemorySpace>& mlp, 
           if (!hidden) return;
           T value, slope;
           elu_and_derivative(acc[0], value, slope);
+          const T curvature = acc[0] > T(0) ? T(0) : slope;
           H_next(b, 0, i) = value;
-          for (int c = 1; c < channels.count; ++c) H_next(b, c, i) = slope * acc[c];
+          for (int c = 1; c < channels.count; ++c) {
+            const int j = channels.mixed_index(c);
+            H_next(b, c, i) = slope * acc[c];
+            if (j >= 0) H_next(b, c, i) += curvature * acc[channels.gradient + j] * acc[channels.velocity];
+          }
         });
   }
 }
@@ -191,90 +140,10 @@ void transpose_weights(const ExecutionSpace& space, const Mlp<T, MemorySpace>& m
       });
 }
 
-namespace impl {
-
-// Loss (7) per sample, reduced into its three terms (an array reduction: one pass, works in Kokkos 3.4 and 4.x).
-template <class T, class MemorySpace>
-struct LossAndOutputAdjoint {
-  using value_type = T[];
-  using size_type = int;
-  unsigned value_count = 3;
-
-  Standardization<T> s;
-  Channels channels;
-  BatchSamples<T, MemorySpace> batch;
-  Activations<T, MemorySpace> Y, Ybar;
-  T wx, wF, wv;                       // 1 / (components * scale^2) of each term
-  T adjoint_x, adjoint_F, adjoint_v;  // d(loss)/d(term sum) of each term, lambdas and 1 / samples folded in
-
-  KOKKOS_INLINE_FUNCTION void init(value_type sums) const {
-    for (unsigned i = 0; i < value_count; ++i) sums[i] = T(0);
-  }
-  KOKKOS_INLINE_FUNCTION void join(MPMROM_REDUCTION_VOLATILE value_type dst,
-                                   const MPMROM_REDUCTION_VOLATILE value_type src) const {
-    for (unsigned i = 0; i < value_count; ++i) dst[i] += src[i];
-  }
-  KOKKOS_INLINE_FUNCTION void operator()(const int b, value_type sums) const {
-    const bool with_adjoint = Ybar.extent(0) > 0;
-    const int p = batch.point(b), t = batch.row(b / batch.samples_per_snapshot);
-    for (int k = 0; k < 3; ++k) {
-      const T g = batch.X(p, k) + s.output_mean[k] + s.output_scale[k] * Y(b, 0, k);
-      const T res = g - batch.x(t, p, k);
-      sums[0] += wx * res * res;
-      if (with_adjoint) Ybar(b, 0, k) = adjoint_x * 2 * wx * res * s.output_scale[k];
-    }
-    if (channels.gradient >= 0) {
-      for (int k = 0; k < 3; ++k)
-        for (int d = 0; d < 3; ++d) {
-          const T Fkd = (k == d ? T(1) : T(0)) + s.output_scale[k] * Y(b, channels.gradient + d, k);
-          const T res = Fkd - batch.F(t, p, 3 * k + d);
-          sums[1] += wF * res * res;
-          if (with_adjoint) Ybar(b, channels.gradient + d, k) = adjoint_F * 2 * wF * res * s.output_scale[k];
-        }
-    }
-    if (channels.velocity >= 0) {
-      for (int k = 0; k < 3; ++k) {
-        const T res = s.output_scale[k] * Y(b, channels.velocity, k) - batch.v(t, p, k);
-        sums[2] += wv * res * res;
-        if (with_adjoint) Ybar(b, channels.velocity, k) = adjoint_v * 2 * wv * res * s.output_scale[k];
-      }
-    }
-  }
-};
-
-}  // namespace impl
-
-// Loss (7) from the network outputs Y (samples, channels, 3): returns the mean terms and, when Ybar is not empty,
-// writes dloss/dY into it (loss = position + lambda1 gradient + lambda2 velocity terms, averaged over samples; over
-// batch.total_samples when set, of which this minibatch is a part).
-template <class ExecutionSpace, class T, class MemorySpace>
-LossTerms<T> loss_and_output_adjoint(const ExecutionSpace& space, const Mlp<T, MemorySpace>& mlp,
-                                     const Channels channels, const LossWeights<T> weights,
-                                     const BatchSamples<T, MemorySpace>& batch, const Activations<T, MemorySpace>& Y,
-                                     const Activations<T, MemorySpace>& Ybar) {
-  const int num_samples = int(Y.extent(0));
-  const T inv_n = T(1) / T(batch.total_samples > 0 ? batch.total_samples : num_samples);
-  impl::LossAndOutputAdjoint<T, MemorySpace> functor;
-  functor.s = mlp.standardization;
-  functor.channels = channels;
-  functor.batch = batch;
-  functor.Y = Y;
-  functor.Ybar = Ybar;
-  functor.wx = T(1) / (3 * weights.position_scale * weights.position_scale);
-  functor.wF = T(1) / (9 * weights.gradient_scale * weights.gradient_scale);
-  functor.wv = T(1) / (3 * weights.velocity_scale * weights.velocity_scale);
-  functor.adjoint_x = inv_n;
-  functor.adjoint_F = inv_n * weights.lambda_gradient;
-  functor.adjoint_v = inv_n * weights.lambda_velocity;
-  T sums[3] = {0, 0, 0};
-  Kokkos::parallel_reduce("mpmrom::nn::train::loss", Kokkos::RangePolicy<ExecutionSpace>(space, 0, num_samples),
-                          functor, sums);
-  space.fence();
-  return LossTerms<T>{sums[0] * inv_n, sums[1] * inv_n, sums[2] * inv_n};
-}
-
 // Through a hidden layer's ELU, in place: Hbar (adjoint of the layer's output) becomes Abar (adjoint of its
-// pre-activations). Channel 0: Hbar_0 elu'(A_0) + sum_c Hbar_c elu''(A_0) A_c; tangent channels: Hbar_c elu'(A_0).
+// pre-activations). Channel 0: Hbar_0 elu'(A_0) + sum_c Hbar_c elu''(A_0) A_c + sum_j Hbar_jv elu'''(A_0) A_j A_v;
+// tangent channels: Hbar_c elu'(A_0), plus, through each mixed channel jv = elu' A_jv + elu'' A_j A_v,
+// Hbar_jv elu''(A_0) A_v on channel j and Hbar_jv elu''(A_0) A_j on channel v.
 template <class ExecutionSpace, class T, class MemorySpace>
 void activation_backward(const ExecutionSpace& space, const Channels channels, const Activations<T, MemorySpace>& A,
                          const Activations<T, MemorySpace>& Hbar) {
@@ -284,11 +153,23 @@ void activation_backward(const ExecutionSpace& space, const Channels channels, c
       KOKKOS_LAMBDA(const int e) {
         const int b = e / n, i = e % n;
         const T a = A(b, 0, i);
-        const T slope = elu_derivative(a), curvature = a > T(0) ? T(0) : slope;  // elu'' = elu' for a <= 0
-        T bar0 = Hbar(b, 0, i) * slope;
+        const T slope = elu_derivative(a), curvature = a > T(0) ? T(0) : slope;  // elu''' = elu'' = elu' for a <= 0
+        T hbar[max_channels] = {};
+        for (int c = 0; c < channels.count; ++c) hbar[c] = Hbar(b, c, i);
+        T bar0 = hbar[0] * slope;
         for (int c = 1; c < channels.count; ++c) {
-          bar0 += Hbar(b, c, i) * curvature * A(b, c, i);
-          Hbar(b, c, i) *= slope;
+          bar0 += hbar[c] * curvature * A(b, c, i);
+          Hbar(b, c, i) = hbar[c] * slope;
+        }
+        if (channels.affine >= 0) {
+          const int v = channels.velocity;
+          for (int j = 0; j < 3; ++j) {
+            const int gj = channels.gradient + j;
+            const T h = hbar[channels.affine + j] * curvature;
+            bar0 += h * A(b, gj, i) * A(b, v, i);
+            Hbar(b, gj, i) += h * A(b, v, i);
+            Hbar(b, v, i) += h * A(b, gj, i);
+          }
         }
         Hbar(b, 0, i) = bar0;
       });
