@@ -1,14 +1,16 @@
 #!/usr/bin/env bash
 # Reduced-model accuracy on the paper's two examples, each configuration rolled out over the scene's whole design
 # (train and test runs in one batch) and evaluated against the full-order runs:
-#   poke  : Algorithm 1 and 2, all points and 15 greedy samples (paper: r = 5, 15 samples, 0.50 % / 0.55 %);
-#   table2: shear_cylinder_17, Algorithm 1 and 2, all 17 points and 6 greedy samples (paper Table 2);
+#   poke  : Algorithm 1 and 2, all points and 15 samples (paper: r = 5, 15 samples, 0.50 % / 0.55 %);
+#   table2: shear_cylinder_17, Algorithm 1 and 2, all 17 points and 6 samples (paper Table 2);
 #   table1: shear_cylinder_3, Algorithm 1 with its 3 points, on each of the three models of the paper's Table 1
-#           (lambda1 = lambda2 = 0; lambda2 only; both).
+#           (lambda1 = lambda2 = 0; lambda2 only; both) and ours with the affine term (lambda3 = 1).
+# Samples: the rollout's default selection (greedy projection with fitted weights).
 # Usage: scripts/rom_experiments.sh poke|table2|table1 [BUILD_DIR] [OUT_DIR]
 # Needs the sweep and model first: poke in out/poke_cylinder (`mpmrom sweep` of scenes/poke_cylinder.toml and
-# `mpmrom train` into its model.h5; MODEL=FILE picks another), table2 from scripts/table1_shear.sh (out/table1/shear17
-# and its lambda1 = lambda2 = 1 model), table1 from the same script (out/table1/shear3 and its three models).
+# `mpmrom train` into its model.h5; MODEL=FILE picks another), table2 from scripts/table1_shear.sh (TABLE1_DIR,
+# default out/table1: shear17 and its lambda1 = lambda2 = 1 model; MODEL=FILE picks another), table1 from the same
+# script (shear3 and its four models).
 set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 experiment=${1:?usage: rom_experiments.sh poke|table2|table1 [BUILD_DIR] [OUT_DIR]}
@@ -21,15 +23,16 @@ case "$experiment" in
     data=$here/out/poke_cylinder; model=${MODEL:-$data/model.h5}; scene=$here/scenes/poke_cylinder.toml; few=15;;
   table2)
     out=${3:-$here/out/rom_table2}
-    data=$here/out/table1/shear17; model=${MODEL:-$here/out/table1/shear17_l1_1_l2_1.h5}
+    data=${TABLE1_DIR:-$here/out/table1}/shear17; model=${MODEL:-${TABLE1_DIR:-$here/out/table1}/shear17_l1_1_l2_1.h5}
     scene=$here/scenes/shear_cylinder_17.toml; few=6;;
   table1)
     out=${3:-$here/out/rom_table1}
-    data=$here/out/table1/shear3; scene=$here/scenes/shear_cylinder_3.toml
+    table1=${TABLE1_DIR:-$here/out/table1}
+    data=$table1/shear3; scene=$here/scenes/shear_cylinder_3.toml
     mkdir -p "$out"
-    for lambdas in l1_0_l2_0 l1_0_l2_1 l1_1_l2_1; do
+    for lambdas in l1_0_l2_0 l1_0_l2_1 l1_1_l2_1 l1_1_l2_1_l3_1; do
       status=0  # 3: some rollouts stopped, the file is written and evaluated
-      "$mpmrom" -q rollout "$here/out/table1/shear3_$lambdas.h5" "$scene" --out "$out/$lambdas.h5" --samples 0 \
+      "$mpmrom" -q rollout "$table1/shear3_$lambdas.h5" "$scene" --out "$out/$lambdas.h5" --samples 0 \
         --params "$data/design.csv" --json > "$out/$lambdas.rollout.json" || status=$?
       [ "$status" -eq 0 ] || [ "$status" -eq 3 ] || { echo "rom_experiments.sh: rollout exited $status" >&2; exit 1; }
       "$mpmrom" -q evaluate "$out/$lambdas.h5" "$data" --json > "$out/$lambdas.errors.json"
@@ -38,10 +41,10 @@ case "$experiment" in
 import json, pathlib, sys
 out = pathlib.Path(sys.argv[1])
 paper = {"l1_0_l2_0": "0.19 % | 13 % | 0.2 %", "l1_0_l2_1": "0.004 % | 0.3 % | 0.3 %",
-         "l1_1_l2_1": "0.004 % | 0.2 % | 0.2 %"}
+         "l1_1_l2_1": "0.004 % | 0.2 % | 0.2 %", "l1_1_l2_1_l3_1": "(not the paper's) | | "}
 print("| lambda1, lambda2 | split | position | velocity | F | stopped | paper: position | velocity | F |")
 print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
-for name, label in (("l1_0_l2_0", "0, 0"), ("l1_0_l2_1", "0, 1"), ("l1_1_l2_1", "1, 1")):
+for name, label in (("l1_0_l2_0", "0, 0"), ("l1_0_l2_1", "0, 1"), ("l1_1_l2_1", "1, 1"), ("l1_1_l2_1_l3_1", "1, 1, lambda3 = 1")):
     e = json.loads((out / f"{name}.errors.json").read_text())
     for split in ("train", "test"):
         cells = [f"{100 * e[split][m]:.3g} %" for m in ("position_error", "velocity_error", "F_error")]
@@ -56,7 +59,7 @@ for method in point node; do
   for samples in 0 "$few"; do
     name="${method}_${samples}"
     "$mpmrom" -q rollout "$model" "$scene" --out "$out/$name.h5" --method "$method" --samples "$samples" \
-      --selection greedy --data "$data" --params "$data/design.csv" --json > "$out/$name.rollout.json"
+      --params "$data/design.csv" --json > "$out/$name.rollout.json"
     "$mpmrom" -q evaluate "$out/$name.h5" "$data" --json > "$out/$name.errors.json"
   done
 done
