@@ -166,13 +166,15 @@ double velocity_gradient_error(const Model& model, const TrainingData& data) {
 TEST(Trainer, AffineTermTeachesTheVelocityGradient) {
   const TrainingData data = twisting_bar_data();
   TrainingSettings settings = small_settings();
+  settings.epochs = 200;  // a sixth of FitsATwistingBar's samples: two trainings here, in the sanitizer build too
+  settings.points_per_snapshot = 24;
   const double without = velocity_gradient_error(train_model(data, settings, "", false), data);
-  settings.lambda_affine = 1.0;
+  settings.lambda_affine = 10.0;
   const double with = velocity_gradient_error(train_model(data, settings, "", false), data);
   std::cout << "velocity gradient error: without the affine term " << without << ", with it " << with << "\n";
-  // This seed: 0.168 without, 0.093 with (OpenMP, double; 0.081 with lambda3 = 10: the 600 epochs limit it). 0.7x
-  // catches a term that does nothing or pushes the wrong way, with room for another backend's rounding.
-  EXPECT_LT(with, 0.7 * without);
+  // This seed: 0.231 without, 0.134 with (OpenMP, double; 600 epochs of 48 points: 0.168 and 0.081). 0.75x catches
+  // a term that does nothing or pushes the wrong way, with room for another backend's rounding.
+  EXPECT_LT(with, 0.75 * without);
 }
 
 TEST(Trainer, SameSeedSameModelOtherSeedOtherModel) {
