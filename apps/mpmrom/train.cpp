@@ -46,9 +46,7 @@ int train(const TrainOptions& o, const Context& context) {
   const auto& world = context.world;
   mpmrom::require_writable_output(o.model_path);
   if (!quiet) std::cerr << "mpmrom train: reading " << o.train_inputs.size() << " input(s)\n";
-  const auto data = mpmrom::load_training_data(
-      o.train_inputs, {},
-      o.training.lambda_affine > 0 ? mpmrom::SnapshotFields::All : mpmrom::SnapshotFields::WithoutAffine);
+  const auto data = mpmrom::load_training_data(o.train_inputs, {}, mpmrom::training_fields(o.training));
   if (!quiet)
     std::cerr << "mpmrom train: " << data.train.runs.size() << " training runs, " << data.test.runs.size()
               << " test runs, " << data.train.runs.front().num_points << " points; r = " << o.training.latent_dim

@@ -40,6 +40,11 @@ struct TrainingSettings {
   void validate() const;  // throws std::invalid_argument naming the bad setting
 };
 
+// What training reads of each run: APIC's C only when the affine term needs it (3/8 of a run's file).
+inline SnapshotFields training_fields(const TrainingSettings& settings) {
+  return settings.lambda_affine > 0 ? SnapshotFields::All : SnapshotFields::WithoutAffine;
+}
+
 struct LossReport {
   double total = 0, position = 0, gradient = 0, velocity = 0, affine = 0;  // mean relative terms, total with lambdas
 };

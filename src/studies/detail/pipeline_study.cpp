@@ -75,8 +75,7 @@ PipelineStudy::PipelineStudy(const PipelineSettings& settings, const std::string
   const Scene& scene = runner_.scene();
   if (scene.design.names.empty()) throw std::runtime_error(scene_path + ": the scene has no [design]");
   say("reading the runs in " + sweep_dir);
-  TrainingData all = load_training_data(
-      {sweep_dir}, {}, settings.training.lambda_affine > 0 ? SnapshotFields::All : SnapshotFields::WithoutAffine);
+  TrainingData all = load_training_data({sweep_dir}, {}, training_fields(settings.training));
   const auto held_out = mpmrom::validation_runs(scene, settings.validation_runs);
   const auto design_runs = scene.design.all_runs();
   for (std::size_t i = 0; i < all.train.runs.size(); ++i) {
