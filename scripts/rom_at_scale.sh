@@ -1,0 +1,65 @@
+#!/usr/bin/env bash
+# The reduced model at scale (docs/results/rom/README.md "At 10^5 points"): a scene's sweep, models trained on it and
+# rollouts of its test runs evaluated against it, all in WORK (the sweep in WORK/data). Made for a GPU machine with no
+# access to the sweep it would take hours to make on 2 cores: every step runs where the script runs.
+#   rom_at_scale.sh train SCENE "NAME|TRAIN FLAGS"...         sweep (unless WORK/data has one), then WORK/NAME.h5
+#   rom_at_scale.sh rollouts SCENE "MODEL|NAME|ROLLOUT FLAGS"...  WORK/MODEL.h5 (or MODEL, a path) over the test runs
+# Environment: MPMROM (the binary; default build/double/apps/mpmrom), WORK (default out/at_scale), OUT (records:
+# OUT/NAME.train.json, OUT/MODEL_NAME.json (the rollout's --json record) and OUT/MODEL_NAME.errors.json (evaluate
+# --json, test runs), default WORK/records). One line per step on stdout; a failing step fails the script.
+set -euo pipefail
+here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+usage="usage: rom_at_scale.sh train|rollouts SCENE CONFIG..."
+verb=${1:?$usage}; scene=${2:?$usage}; shift 2
+mpmrom=${MPMROM:-$here/build/double/apps/mpmrom}
+work=${WORK:-$here/out/at_scale}
+out=${OUT:-$work/records}
+mkdir -p "$work" "$out"
+
+# The test runs' parameter values (design.csv's rows with split = test, without split and file).
+test_params() {
+  python3 - "$work/data/design.csv" "$work/test_params.csv" <<'PY'
+import csv, sys
+rows = [r for r in csv.DictReader(open(sys.argv[1])) if r["split"] == "test"]
+if not rows:
+    sys.exit(f"rom_at_scale: error: no test runs in {sys.argv[1]}")
+names = [k for k in rows[0] if k not in ("split", "file")]
+with open(sys.argv[2], "w") as f:
+    f.write(",".join(names) + "\n" + "".join(",".join(r[n] for n in names) + "\n" for r in rows))
+PY
+}
+
+case $verb in
+  train)
+    if [ ! -f "$work/data/design.csv" ]; then
+      start=$SECONDS
+      "$mpmrom" -q sweep "$scene" --out "$work/data"
+      echo "sweep: $((SECONDS - start)) s"
+    fi
+    for config in "$@"; do
+      IFS='|' read -r name flags <<< "$config"
+      read -r -a train_flags <<< "$flags"
+      start=$SECONDS
+      "$mpmrom" -q train "$work/data" --out "$work/$name.h5" "${train_flags[@]}" --json > "$out/$name.train.json"
+      echo "train $name: $((SECONDS - start)) s"
+    done
+    ;;
+  rollouts)
+    test_params
+    for config in "$@"; do
+      IFS='|' read -r model name flags <<< "$config"
+      read -r -a rollout_flags <<< "$flags"
+      path=$work/$model.h5
+      [ -f "$path" ] || path=$model
+      stem=$(basename "$model" .h5)_$name
+      start=$SECONDS status=0
+      "$mpmrom" -q rollout "$path" "$scene" --params "$work/test_params.csv" --out "$work/$stem.rom.h5" \
+        "${rollout_flags[@]}" --json > "$out/$stem.json" || status=$?
+      # Exit 3: some rollouts stopped, which is a result (counted in the record).
+      [ "$status" -eq 0 ] || [ "$status" -eq 3 ] || { echo "rom_at_scale: error: rollout $stem exited $status" >&2; exit 1; }
+      "$mpmrom" -q evaluate "$work/$stem.rom.h5" "$work/data" --model "$path" --json > "$out/$stem.errors.json"
+      echo "rollout $stem: $((SECONDS - start)) s, exit $status"
+    done
+    ;;
+  *) echo "$usage" >&2; exit 2 ;;
+esac
