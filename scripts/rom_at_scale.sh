@@ -5,8 +5,9 @@
 #   rom_at_scale.sh train SCENE "NAME|TRAIN FLAGS"...         sweep (unless WORK/data has one), then WORK/NAME.h5
 #   rom_at_scale.sh rollouts SCENE "MODEL|NAME|ROLLOUT FLAGS"...  WORK/MODEL.h5 (or MODEL, a path) over the test runs
 # Environment: MPMROM (the binary; default build/double/apps/mpmrom), WORK (default out/at_scale), OUT (records:
-# OUT/NAME.train.json, OUT/MODEL_NAME.json (the rollout's --json record) and OUT/MODEL_NAME.errors.json (evaluate
-# --json, test runs), default WORK/records). One line per step on stdout; a failing step fails the script.
+# OUT/NAME.train.json; per rollout OUT/MODEL_NAME.json (rollout --json), .errors.json (evaluate --json, test runs),
+# .study.json (both with the configuration) and .record.json (issue 28's record, scripts/rom_issue_record.py);
+# default WORK/records). One line per step on stdout; a failing step fails the script.
 set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 usage="usage: rom_at_scale.sh train|rollouts SCENE CONFIG..."
@@ -26,6 +27,18 @@ if not rows:
 names = [k for k in rows[0] if k not in ("split", "file")]
 with open(sys.argv[2], "w") as f:
     f.write(",".join(names) + "\n" + "".join(",".join(r[n] for n in names) + "\n" for r in rows))
+PY
+}
+
+# OUT/STEM.study.json: the rollout's and evaluate's records with the configuration (rom_issue_record.py's input).
+study_record() {
+  python3 - "$out/$1" "$2" "$3" "$4" "$work/data" <<'PY'
+import json, sys
+stem, name, model, flags, reference = sys.argv[1:6]
+rollout = json.load(open(stem + ".json"))
+record = {"name": name, "flags": flags, "model": model, "commit": rollout["git_commit"][:7], "runs": "test",
+          "reference": reference, "errors": json.load(open(stem + ".errors.json")), "rollout": rollout}
+json.dump(record, open(stem + ".study.json", "w"), indent=1)
 PY
 }
 
@@ -58,6 +71,10 @@ case $verb in
       # Exit 3: some rollouts stopped, which is a result (counted in the record).
       [ "$status" -eq 0 ] || [ "$status" -eq 3 ] || { echo "rom_at_scale: error: rollout $stem exited $status" >&2; exit 1; }
       "$mpmrom" -q evaluate "$work/$stem.rom.h5" "$work/data" --model "$path" --json > "$out/$stem.errors.json"
+      study_record "$stem" "$name" "$path" "$flags"
+      method=$(python3 -c 'import json, sys; print(json.load(open(sys.argv[1]))["settings"]["method"])' "$out/$stem.json")
+      python3 "$here/scripts/rom_issue_record.py" "$out/$stem.study.json" "$out/$stem.record.json" \
+        "$(basename "$scene" .toml)" "$method" "$(git -C "$here" rev-parse --short HEAD)" >&2
       echo "rollout $stem: $((SECONDS - start)) s, exit $status"
     done
     ;;
