@@ -25,16 +25,7 @@ scene=$SCENE
 work="$dir/rollout_defaults"
 mkdir -p "$work"
 # The test runs' parameter values (every design column before split).
-python3 - "$data/design.csv" "$work/test.csv" <<'PY'
-import csv, sys
-rows = list(csv.DictReader(open(sys.argv[1])))
-names = [k for k in rows[0] if k not in ("split", "file")]
-with open(sys.argv[2], "w") as f:
-    f.write(",".join(names) + "\n")
-    for row in rows:
-        if row["split"] == "test":
-            f.write(",".join(row[n] for n in names) + "\n")
-PY
+design_params "$data/design.csv" "$work/test.csv" test
 configurations=(
   "defaults|"
   "weights mass|--weights mass"

@@ -5,8 +5,8 @@
 #   rom_at_scale.sh train SCENE "NAME|TRAIN FLAGS"...         sweep (unless WORK/data has one), then WORK/NAME.h5
 #   rom_at_scale.sh rollouts SCENE "MODEL|NAME|ROLLOUT FLAGS"...  WORK/MODEL.h5 (or MODEL, a path) over the test runs
 # Environment: MPMROM (the binary; default build/double/apps/mpmrom), WORK (default out/at_scale), OUT (records:
-# OUT/NAME.train.json; per rollout OUT/MODEL_NAME.json (rollout --json), .errors.json (evaluate --json, test runs),
-# .study.json (both with the configuration) and .record.json (issue 28's record, scripts/rom_issue_record.py);
+# OUT/NAME.train.json; per rollout OUT/MODEL_NAME.rollout.json (rollout --json), .errors.json (evaluate --json, test
+# runs), .study.json (both with the configuration) and .record.json (issue 28's record, scripts/rom_issue_record.py);
 # default WORK/records). One line per step on stdout; a failing step fails the script.
 set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -16,26 +16,14 @@ mpmrom=${MPMROM:-$here/build/double/apps/mpmrom}
 work=${WORK:-$here/out/at_scale}
 out=${OUT:-$work/records}
 mkdir -p "$work" "$out"
-
-# The test runs' parameter values (design.csv's rows with split = test, without split and file).
-test_params() {
-  python3 - "$work/data/design.csv" "$work/test_params.csv" <<'PY'
-import csv, sys
-rows = [r for r in csv.DictReader(open(sys.argv[1])) if r["split"] == "test"]
-if not rows:
-    sys.exit(f"rom_at_scale: error: no test runs in {sys.argv[1]}")
-names = [k for k in rows[0] if k not in ("split", "file")]
-with open(sys.argv[2], "w") as f:
-    f.write(",".join(names) + "\n" + "".join(",".join(r[n] for n in names) + "\n" for r in rows))
-PY
-}
+source "$here/scripts/lib/rom_configuration.sh"
 
 # OUT/STEM.study.json: the rollout's and evaluate's records with the configuration (rom_issue_record.py's input).
 study_record() {
   python3 - "$out/$1" "$2" "$3" "$4" "$work/data" <<'PY'
 import json, sys
 stem, name, model, flags, reference = sys.argv[1:6]
-rollout = json.load(open(stem + ".json"))
+rollout = json.load(open(stem + ".rollout.json"))
 record = {"name": name, "flags": flags, "model": model, "commit": rollout["git_commit"][:7], "runs": "test",
           "reference": reference, "errors": json.load(open(stem + ".errors.json")), "rollout": rollout}
 json.dump(record, open(stem + ".study.json", "w"), indent=1)
@@ -58,24 +46,25 @@ case $verb in
     done
     ;;
   rollouts)
-    test_params
+    design_params "$work/data/design.csv" "$work/test_params.csv" test
+    [ "$(wc -l < "$work/test_params.csv")" -gt 1 ] ||
+      { echo "rom_at_scale: error: no test runs in $work/data" >&2; exit 1; }
     for config in "$@"; do
       IFS='|' read -r model name flags <<< "$config"
       read -r -a rollout_flags <<< "$flags"
       path=$work/$model.h5
       [ -f "$path" ] || path=$model
       stem=$(basename "$model" .h5)_$name
-      start=$SECONDS status=0
-      "$mpmrom" -q rollout "$path" "$scene" --params "$work/test_params.csv" --out "$work/$stem.rom.h5" \
-        "${rollout_flags[@]}" --json > "$out/$stem.json" || status=$?
-      # Exit 3: some rollouts stopped, which is a result (counted in the record).
-      [ "$status" -eq 0 ] || [ "$status" -eq 3 ] || { echo "rom_at_scale: error: rollout $stem exited $status" >&2; exit 1; }
-      "$mpmrom" -q evaluate "$work/$stem.rom.h5" "$work/data" --model "$path" --json > "$out/$stem.errors.json"
+      start=$SECONDS
+      rom_configuration rom_at_scale "$mpmrom" "$path" "$scene" "$work/test_params.csv" "$work/data" "$work/$stem" \
+        "${rollout_flags[@]}"
+      mv "$work/$stem.rollout.json" "$work/$stem.errors.json" "$out/"
       study_record "$stem" "$name" "$path" "$flags"
-      method=$(python3 -c 'import json, sys; print(json.load(open(sys.argv[1]))["settings"]["method"])' "$out/$stem.json")
+      method=$(python3 -c 'import json, sys; print(json.load(open(sys.argv[1]))["settings"]["method"])' \
+        "$out/$stem.rollout.json")
       python3 "$here/scripts/rom_issue_record.py" "$out/$stem.study.json" "$out/$stem.record.json" \
         "$(basename "$scene" .toml)" "$method" "$(git -C "$here" rev-parse --short HEAD)" >&2
-      echo "rollout $stem: $((SECONDS - start)) s, exit $status"
+      echo "rollout $stem: $((SECONDS - start)) s"
     done
     ;;
   *) echo "$usage" >&2; exit 2 ;;

@@ -17,16 +17,7 @@ source "$here/scripts/lib/rom_configuration.sh"
 work=${WORK_DIR:-$here/out/rom_projection_study}
 mkdir -p "$out" "$work"
 # The rollouts' parameter values: every design column before split, the rows of SPLIT (all when unset).
-python3 - "$data/design.csv" "$work/params.csv" "${SPLIT:-}" <<'PY'
-import csv, sys
-rows = list(csv.DictReader(open(sys.argv[1])))
-names = [k for k in rows[0] if k not in ("split", "file")]
-with open(sys.argv[2], "w") as f:
-    f.write(",".join(names) + "\n")
-    for row in rows:
-        if not sys.argv[3] or row["split"] == sys.argv[3]:
-            f.write(",".join(row[n] for n in names) + "\n")
-PY
+design_params "$data/design.csv" "$work/params.csv" "${SPLIT:-}"
 default_configs="velocity|--projection velocity;position|--projection position"
 default_configs+=";velocity damping 0.01|--projection velocity --rate-damping 0.01"
 default_configs+=";position damping 0.01|--projection position --rate-damping 0.01"

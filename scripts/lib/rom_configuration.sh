@@ -1,5 +1,21 @@
-# Sourced by the reduced-model studies (rollout_defaults.sh, rom_projection_study.sh): one configuration rolled out
-# over a parameter file and evaluated against the full-order runs.
+# Sourced by the reduced-model studies (rollout_defaults.sh, rom_projection_study.sh, rom_at_scale.sh): a sweep's
+# parameter values, and one configuration rolled out over them and evaluated against the full-order runs.
+
+# design_params DESIGN_CSV OUT [SPLIT]: the design's parameter values (every column but split and file) as a --params
+# file, the rows of SPLIT only when given.
+design_params() {
+  python3 - "$1" "$2" "${3:-}" <<'PY'
+import csv, sys
+rows = list(csv.DictReader(open(sys.argv[1])))
+names = [k for k in rows[0] if k not in ("split", "file")]
+with open(sys.argv[2], "w") as f:
+    f.write(",".join(names) + "\n")
+    for row in rows:
+        if not sys.argv[3] or row["split"] == sys.argv[3]:
+            f.write(",".join(row[n] for n in names) + "\n")
+PY
+}
+
 # rom_configuration SCRIPT MPMROM MODEL SCENE PARAMS DATA FILE [FLAGS...]: writes FILE.h5, FILE.rollout.json (the
 # rollout's --json record) and FILE.errors.json (evaluate --json); a batch in which some rollouts stopped (exit 3)
 # is a result, any other failure ends the calling script with one line naming SCRIPT.
