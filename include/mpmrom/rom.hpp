@@ -34,6 +34,12 @@ enum class SnapshotSource { Reduced, States, Full };
 SnapshotSource snapshot_source_from_string(const std::string& name);  // "reduced", "states" or "full"
 std::string to_string(SnapshotSource source);
 
+// What the Galerkin step's cubature weights reproduce over the snapshots: its own all-point reduced force (Own), or
+// the grid step's, Algorithm 1 with every point (Grid): the samples' continuum forces then stand in for MPM's.
+enum class CubatureTarget { Own, Grid };
+CubatureTarget cubature_target_from_string(const std::string& name);  // "own" or "grid"
+std::string to_string(CubatureTarget target);
+
 // The samples' weights in the projection: their masses, empirical cubature weights fitted to snapshots, or (Auto) the
 // weights the selection fits with its samples (greedy projection, cubature) and the masses otherwise.
 enum class SampleWeighting { Mass, Cubature, Auto };
@@ -67,6 +73,7 @@ struct RomSettings {
   SampleWeighting weighting = SampleWeighting::Auto;
   // What the cubature and the greedy projection selection fit (--cubature-snapshots, docs/rom.md "Sample weights").
   SnapshotSource snapshot_source = SnapshotSource::Reduced;
+  CubatureTarget cubature_target = CubatureTarget::Own;  // --method galerkin's weights (--cubature-target)
   double max_condition = 0;   // regularise the normal equations above this estimate (0: 0.01 / epsilon)
   double regularization = 0;  // mu = regularization * trace / r (0: 100 epsilon)
   // Safeguards and detectors (docs/stability.md).
@@ -90,6 +97,9 @@ struct HyperReduction {
   std::vector<int> samples;  // M: indices into the model's reference points
   // The projection's weight of each sample (cubature_weights); empty: the samples' masses.
   std::vector<double> weights;
+  // The Galerkin step's weight of each sample's force where it differs from `weights` (CubatureFit::force_weights);
+  // empty: `weights`.
+  std::vector<double> force_weights;
   // Algorithm 1: the material points feeding the transfer, samples first (M, then the neighbours N).
   std::vector<int> source_points;
   // Algorithm 2: quadrature points (current configuration) and their volume weights.
@@ -136,6 +146,9 @@ struct CubatureFit {
   std::vector<int> samples;
   std::vector<double> weights;
   std::vector<double> misfits;  // relative, per block: the normal matrix, then each field
+  // The Galerkin step's force weights where they are fitted apart from the mass and momentum weights above
+  // (CubatureTarget::Grid: the grid step's force is not the samples' own); empty: the same weights.
+  std::vector<double> force_weights;
 };
 // The snapshots settings.cubature_from_reduced_motion asks for: the reduced model on the scene (its source_path), or
 // data's training runs (throws std::invalid_argument when data is null).

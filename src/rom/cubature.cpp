@@ -2,6 +2,7 @@
 // sums reproduce the all-point, mass-weighted sums of the projection over snapshots (rom/detail/snapshots.hpp), and
 // the greedy choice of the samples that Lawson and Hanson's active set makes (docs/rom.md "Sample weights").
 #include <cmath>
+#include <numeric>
 #include <stdexcept>
 #include <vector>
 
@@ -15,14 +16,14 @@ namespace {
 using impl::PointSnapshot;
 using impl::SnapshotStream;
 
-// The cubature's least-squares system in normal form over the candidate points: G = E^T E, h = E^T f, where E's
+// The cubature's least-squares system over the candidate points, E w = f, where E's
 // column c holds candidate c's quantities at every snapshot (the upper triangle of J^T J, then J^T of each field)
 // and f the all-point mass-weighted sums; each block's rows are scaled by its sums' norm, so that each counts as one
 // relative misfit. E and f are kept for the misfits.
 struct CubatureSystem {
   int r = 0;
   std::size_t rows = 0, columns = 0, per_snapshot = 0;
-  std::vector<double> E, f, G, h;
+  std::vector<double> E, f;
   int block_of(std::size_t row) const {
     const std::size_t k = row % per_snapshot, matrix = std::size_t(r * (r + 1) / 2);
     return k < matrix ? 0 : 1 + int((k - matrix) / std::size_t(r));
@@ -30,7 +31,8 @@ struct CubatureSystem {
   int blocks() const { return 1 + int((per_snapshot - std::size_t(r * (r + 1) / 2)) / std::size_t(r)); }
 };
 
-void point_quantities(const PointSnapshot& snapshot, std::size_t p, int r, double* out) {  // p: the row
+// The row's quantities as a candidate, or (target) as a term of the all-point sums.
+void point_quantities(const PointSnapshot& snapshot, std::size_t p, int r, bool target, double* out) {
   const double* J = snapshot.J + p * 3 * std::size_t(r);
   int k = 0;
   for (int i = 0; i < r; ++i)
@@ -45,8 +47,9 @@ void point_quantities(const PointSnapshot& snapshot, std::size_t p, int r, doubl
       for (int d = 0; d < 3; ++d) sum += J[d * r + i] * field[p * 3 + d];
       out[k++] = sum;
     }
-  if (snapshot.reduced != nullptr)
-    for (int i = 0; i < r; ++i) out[k++] = snapshot.reduced[p * std::size_t(r) + std::size_t(i)];
+  const double* reduced = target && snapshot.reduced_target != nullptr ? snapshot.reduced_target : snapshot.reduced;
+  if (reduced != nullptr)
+    for (int i = 0; i < r; ++i) out[k++] = reduced[p * std::size_t(r) + std::size_t(i)];
 }
 
 CubatureSystem cubature_system(const Model& model, const SnapshotStream& snapshots,
@@ -64,13 +67,13 @@ CubatureSystem cubature_system(const Model& model, const SnapshotStream& snapsho
     system.f.resize(first + Q, 0.0);
     system.E.resize((first + Q) * C, 0.0);
     for (std::size_t row = 0; row < snapshot.rows(P); ++row) {
-      point_quantities(snapshot, row, r, q.data());
+      point_quantities(snapshot, row, r, true, q.data());
       const double m = snapshot.mass_scale * model.mass[snapshot.point(row)];
       for (std::size_t k = 0; k < Q; ++k) system.f[first + k] += m * q[k];
     }
     const std::vector<std::size_t> rows = snapshot.rows_of(candidates);
     for (std::size_t c = 0; c < C; ++c) {
-      point_quantities(snapshot, rows[c], r, q.data());
+      point_quantities(snapshot, rows[c], r, false, q.data());
       for (std::size_t k = 0; k < Q; ++k) system.E[(first + k) * C + c] = q[k];
     }
   });
@@ -85,49 +88,98 @@ CubatureSystem cubature_system(const Model& model, const SnapshotStream& snapsho
     system.f[row] *= scale;
     for (std::size_t c = 0; c < C; ++c) system.E[row * C + c] *= scale;
   }
-  system.G.assign(C * C, 0.0);
-  system.h.assign(C, 0.0);
-  for (std::size_t row = 0; row < system.rows; ++row) {
-    const double* e = &system.E[row * C];
-    for (std::size_t a = 0; a < C; ++a) {
-      if (e[a] == 0) continue;
-      system.h[a] += e[a] * system.f[row];
-      for (std::size_t b = 0; b < C; ++b) system.G[a * C + b] += e[a] * e[b];
-    }
-  }
   return system;
 }
 
-// The non-negative fit over the system's candidates (at most max_active positive, 0: any), with its relative
-// misfits per block; keeps the candidates with w > 0 when positive_only, else every candidate in order.
-CubatureFit solve(const CubatureSystem& system, const std::vector<int>& candidates, std::size_t max_active,
-                  bool positive_only) {
-  const std::vector<double> w = dense::nnls_normal(system.G, system.h, system.columns, max_active);
-  CubatureFit fit;
-  fit.misfits.assign(std::size_t(system.blocks()), 0.0);
+// The normal equations G w = h of the system's rows in `blocks` (a mask by block) over the columns `columns`.
+void normal_equations(const CubatureSystem& system, const std::vector<bool>& blocks,
+                      const std::vector<std::size_t>& columns, std::vector<double>& G, std::vector<double>& h) {
+  const std::size_t C = columns.size();
+  G.assign(C * C, 0.0);
+  h.assign(C, 0.0);
   for (std::size_t row = 0; row < system.rows; ++row) {
+    if (!blocks[std::size_t(system.block_of(row))]) continue;
+    const double* e = &system.E[row * system.columns];
+    for (std::size_t a = 0; a < C; ++a) {
+      const double ea = e[columns[a]];
+      if (ea == 0) continue;
+      h[a] += ea * system.f[row];
+      for (std::size_t b = 0; b < C; ++b) G[a * C + b] += ea * e[columns[b]];
+    }
+  }
+}
+
+// Non-negative weights over `columns` for the rows in `blocks` (at most max_active positive, 0: any), as a weight
+// per system column (0 outside `columns`).
+std::vector<double> fit_blocks(const CubatureSystem& system, const std::vector<bool>& blocks,
+                               const std::vector<std::size_t>& columns, std::size_t max_active) {
+  std::vector<double> G, h;
+  normal_equations(system, blocks, columns, G, h);
+  const std::vector<double> w = dense::nnls_normal(G, h, columns.size(), max_active);
+  std::vector<double> all(system.columns, 0.0);
+  for (std::size_t c = 0; c < columns.size(); ++c) all[columns[c]] = w[c];
+  return all;
+}
+
+// The non-negative fit over the system's candidates (at most max_active positive, 0: any), with its relative
+// misfits per block; keeps the candidates with a positive weight when positive_only, else every candidate in order.
+// split: the last block (the Galerkin step's force) gets weights of its own, the active set chosen on it, and the
+// mass matrix and momentum are then fitted on the same samples.
+CubatureFit solve(const CubatureSystem& system, const std::vector<int>& candidates, std::size_t max_active,
+                  bool positive_only, bool split) {
+  const std::size_t blocks = std::size_t(system.blocks());
+  std::vector<std::size_t> every(system.columns);
+  std::iota(every.begin(), every.end(), 0);
+  std::vector<double> w, force;
+  if (!split) {
+    w = fit_blocks(system, std::vector<bool>(blocks, true), every, max_active);
+    force = w;
+  } else {
+    std::vector<bool> last(blocks, false), others(blocks, true);
+    last.back() = true;
+    others.back() = false;
+    force = fit_blocks(system, last, every, max_active);
+    std::vector<std::size_t> taken;
+    for (std::size_t c = 0; c < system.columns; ++c)
+      if (force[c] > 0 || !positive_only) taken.push_back(c);
+    w = fit_blocks(system, others, taken, 0);
+  }
+  CubatureFit fit;
+  fit.misfits.assign(blocks, 0.0);
+  for (std::size_t row = 0; row < system.rows; ++row) {
+    const std::size_t block = std::size_t(system.block_of(row));
+    const std::vector<double>& weights = split && block + 1 == blocks ? force : w;
     double e = -system.f[row];
-    for (std::size_t c = 0; c < system.columns; ++c) e += system.E[row * system.columns + c] * w[c];
-    fit.misfits[std::size_t(system.block_of(row))] += e * e;
+    for (std::size_t c = 0; c < system.columns; ++c) e += system.E[row * system.columns + c] * weights[c];
+    fit.misfits[block] += e * e;
   }
   for (double& m : fit.misfits) m = std::sqrt(m);
   for (std::size_t c = 0; c < candidates.size(); ++c)
-    if (!positive_only || w[c] > 0) {
+    if (!positive_only || force[c] > 0) {
       fit.samples.push_back(candidates[c]);
       fit.weights.push_back(w[c]);
+      if (split) fit.force_weights.push_back(force[c]);
     }
   return fit;
+}
+
+// Whether the snapshots' force target is another step's (CubatureTarget::Grid): then fitted with weights of its own.
+bool split_force(const CubatureSnapshots& snapshots) {
+  return snapshots.data == nullptr && snapshots.settings.method == RomMethod::Galerkin &&
+         snapshots.settings.cubature_target == CubatureTarget::Grid;
 }
 
 }  // namespace
 
 CubatureFit cubature_weights(const Model& model, const CubatureSnapshots& snapshots, const std::vector<int>& samples) {
-  return solve(cubature_system(model, impl::snapshot_stream(model, snapshots), samples), samples, 0, false);
+  return solve(cubature_system(model, impl::snapshot_stream(model, snapshots), samples), samples, 0, false,
+               split_force(snapshots));
 }
 
 CubatureFit cubature_selection(const Model& model, const CubatureSnapshots& snapshots, std::size_t count) {
   const std::vector<int> candidates = impl::all_candidates(model, snapshots.max_candidates);
-  return solve(cubature_system(model, impl::snapshot_stream(model, snapshots), candidates), candidates, count, true);
+  return solve(cubature_system(model, impl::snapshot_stream(model, snapshots), candidates), candidates, count, true,
+               split_force(snapshots));
 }
 
 }  // namespace mpmrom

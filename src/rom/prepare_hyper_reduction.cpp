@@ -99,6 +99,7 @@ HyperReduction prepare_hyper_reduction(const Model& model, const Scene& scene, c
   const CubatureFit fit =
       selected.samples.empty() ? cubature_weights(model, cubature_snapshots(scene, settings, data), samples) : selected;
   reduction.weights = fit.weights;
+  reduction.force_weights = fit.force_weights;
   if (log)
     log("cubature weights: relative misfit" + misfit_list(fit.misfits) +
         " (the normal matrix, then each projected field)");

@@ -121,6 +121,9 @@ void write_hyper_reduction(hdf5::File& file, const HyperReduction& sets) {
   // absent: the projection weighted the samples by their masses
   if (!sets.weights.empty())
     write_dataset(reduction, "sample_weights", hdf5::Element::float64, sets.weights, {sets.weights.size()});
+  if (!sets.force_weights.empty())  // absent: the Galerkin forces weighted as the samples
+    write_dataset(reduction, "sample_force_weights", hdf5::Element::float64, sets.force_weights,
+                  {sets.force_weights.size()});
 }
 
 // The sets in /hyper_reduction (write_hyper_reduction) for the given samples.
@@ -149,6 +152,9 @@ HyperReduction read_hyper_reduction(const std::string& path, const hdf5::Group& 
     bad(path, "/hyper_reduction/node_offsets does not match nodes and node_sources");
   if (reduction.has_child("sample_weights"))
     sets.weights = impl::read_checked(path, reduction.dataset("sample_weights"), {samples.size()}, "(samples)");
+  if (reduction.has_child("sample_force_weights"))
+    sets.force_weights =
+        impl::read_checked(path, reduction.dataset("sample_force_weights"), {samples.size()}, "(samples)");
   return sets;
 }
 

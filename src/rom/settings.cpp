@@ -73,6 +73,14 @@ std::string to_string(SnapshotSource source) {
   return source == SnapshotSource::Reduced ? "reduced" : source == SnapshotSource::States ? "states" : "full";
 }
 
+CubatureTarget cubature_target_from_string(const std::string& name) {
+  if (name == "own") return CubatureTarget::Own;
+  if (name == "grid") return CubatureTarget::Grid;
+  throw std::invalid_argument("cubature target must be 'own' or 'grid', not '" + name + "'");
+}
+
+std::string to_string(CubatureTarget target) { return target == CubatureTarget::Own ? "own" : "grid"; }
+
 std::string to_string(SampleWeighting weighting) {
   return weighting == SampleWeighting::Mass ? "mass" : weighting == SampleWeighting::Cubature ? "cubature" : "auto";
 }
@@ -99,6 +107,7 @@ nlohmann::json RomSettings::to_json() const {
           {"rate_damping", rate_damping},
           {"weights", to_string(fitted_weights(*this))},
           {"cubature_snapshots", to_string(snapshot_source)},
+          {"cubature_target", to_string(cubature_target)},
           {"max_condition", max_condition},
           {"regularization", regularization},
           {"regularize", regularize},
@@ -120,6 +129,10 @@ void RomSettings::validate() const {
   if (!(rate_damping >= 0) || rate_damping > 1e6) throw std::invalid_argument("--rate-damping must be in [0, 1e6]");
   if (method == RomMethod::Galerkin && projection == ProjectionScheme::Position)
     throw std::invalid_argument("--method galerkin takes --projection velocity");
+  if (cubature_target == CubatureTarget::Grid && method != RomMethod::Galerkin)
+    throw std::invalid_argument("--cubature-target grid is for --method galerkin (the grid methods fit the grid step)");
+  if (cubature_target == CubatureTarget::Grid && snapshot_source == SnapshotSource::Full)
+    throw std::invalid_argument("--cubature-target grid takes --cubature-snapshots reduced or states");
   if (newton_iterations < 1) throw std::invalid_argument("--newton-iterations must be >= 1");
   if (max_condition < 0 || regularization < 0)
     throw std::invalid_argument("--max-condition and --regularization must be >= 0");

@@ -105,16 +105,76 @@ void use_last_substep(const impl::BatchStepperBase& stepper, const std::vector<i
   }
 }
 
+// The Galerkin step's snapshot of one sub-step from `state` with the grid step's reduced force as the all-point
+// target (CubatureTarget::Grid): both steppers advance one sub-step from the state; the Galerkin stepper gives J at
+// its trial state, the momentum J^T v_n and the candidates' forces q, the grid stepper (Algorithm 1 at the same
+// points) the force its sub-step applied, J_trial^T (v_G2P - v_n) / dt, which the samples' q must reproduce.
+void use_grid_target(impl::BatchStepperBase& galerkin, impl::BatchStepperBase& grid, const impl::BatchState& state,
+                     const std::vector<int>* points, double mass_scale, std::size_t P,
+                     const std::function<void(const PointSnapshot&)>& use) {
+  galerkin.restore(state);
+  const double dt = galerkin.probe_substep();
+  grid.restore(state);
+  if (dt <= 0 || grid.probe_substep() != dt) throw std::logic_error("cubature: the two steps' time steps differ");
+  const int r = galerkin.latent_dim();
+  const std::size_t S = points ? points->size() : P;
+  const auto own = galerkin.last_projection_inputs(), moved = grid.last_projection_inputs();
+  std::vector<double> target(S * std::size_t(r));
+  for (int b = 0; b < galerkin.rollouts(); ++b) {
+    if ((galerkin.flags(b) | grid.flags(b)) & rom::fatal_flags) continue;
+    const std::size_t first = std::size_t(b) * S;
+    const double* J = &moved.J[first * 3 * std::size_t(r)];
+    for (std::size_t s = 0; s < S; ++s)
+      for (int k = 0; k < r; ++k) {
+        double f = 0;
+        for (int d = 0; d < 3; ++d)
+          f += J[(s * 3 + std::size_t(d)) * std::size_t(r) + std::size_t(k)] *
+               (moved.velocity[(first + s) * 3 + std::size_t(d)] - own.velocity[(first + s) * 3 + std::size_t(d)]);
+        target[s * std::size_t(r) + std::size_t(k)] = f / dt;
+      }
+    PointSnapshot snapshot{&own.J[first * 3 * std::size_t(r)],
+                           {&own.velocity[first * 3]},
+                           &own.force[first * std::size_t(r)],
+                           points,
+                           mass_scale};
+    snapshot.reduced_target = target.data();
+    use(snapshot);
+  }
+}
+
+// The grid step's stepper for the Galerkin step's snapshots with CubatureTarget::Grid (null: its own target).
+std::unique_ptr<impl::BatchStepperBase> grid_target_stepper(const Model& model, const std::string& scene_path,
+                                                            const Scene& scene, const RomSettings& settings,
+                                                            const std::vector<RolloutCase>& cases,
+                                                            const std::vector<int>& points) {
+  if (settings.method != RomMethod::Galerkin || settings.cubature_target != CubatureTarget::Grid) return nullptr;
+  RomSettings grid = settings;
+  grid.method = RomMethod::MaterialPoint;
+  grid.cubature_target = CubatureTarget::Own;
+  return snapshot_stepper(model, scene_path, scene, grid, cases, points);
+}
+
 // The all-point reduced model over at most max_rollouts of the scene's training design, at every output frame.
 SnapshotStream reduced_motion(const Model& model, const std::string& scene_path, const RomSettings& settings,
                               std::size_t max_rollouts) {
   return [&model, scene_path, settings, max_rollouts](const std::function<void(const PointSnapshot&)>& use) {
     const Scene scene = load_scene(scene_path);
     std::vector<int> indices;
-    auto stepper = snapshot_stepper(model, scene_path, scene, settings, training_cases(scene, max_rollouts, indices),
-                                    every_point(model));
-    while (stepper->advance_frame())
-      use_last_substep(*stepper, nullptr, 1, model.num_points(), settings.method == RomMethod::Galerkin, use);
+    const auto cases = training_cases(scene, max_rollouts, indices);
+    auto stepper = snapshot_stepper(model, scene_path, scene, settings, cases, every_point(model));
+    auto grid = grid_target_stepper(model, scene_path, scene, settings, cases, every_point(model));
+    if (!grid) {
+      while (stepper->advance_frame())
+        use_last_substep(*stepper, nullptr, 1, model.num_points(), settings.method == RomMethod::Galerkin, use);
+      return;
+    }
+    // The grid step's all-point motion, both steps probed from each of its output frames.
+    while (grid->advance_frame()) {
+      const impl::BatchState state = grid->state();
+      if (state.frame + 1 >= grid->frames()) break;
+      use_grid_target(*stepper, *grid, state, nullptr, 1, model.num_points(), use);
+      grid->restore(state);
+    }
   };
 }
 
@@ -152,8 +212,10 @@ SnapshotStream training_states(const Model& model, const std::string& scene_path
       for (const int c : candidates) picked += model.mass[std::size_t(c)];
       mass_scale = all / picked;
     }
-    auto stepper = snapshot_stepper(model, scene_path, scene, settings, training_cases(scene, max_rollouts, indices),
-                                    sampled ? candidates : every_point(model));
+    const auto cases = training_cases(scene, max_rollouts, indices);
+    const std::vector<int> rows = sampled ? candidates : every_point(model);
+    auto stepper = snapshot_stepper(model, scene_path, scene, settings, cases, rows);
+    auto grid = grid_target_stepper(model, scene_path, scene, settings, cases, rows);
     const std::size_t r = std::size_t(model.latent_dim);
     std::vector<std::vector<std::size_t>> codes;
     for (const int index : indices) codes.push_back(codes_of_run(model, index));
@@ -174,6 +236,10 @@ SnapshotStream training_states(const Model& model, const std::string& scene_path
           state.xhat[b * r + q] = now[q];
           state.xhatdot[b * r + q] = (after[q] - before[q]) / span;
         }
+      }
+      if (grid) {
+        use_grid_target(*stepper, *grid, state, sampled ? &candidates : nullptr, mass_scale, model.num_points(), use);
+        continue;
       }
       stepper->restore(state);
       stepper->probe_substep();

@@ -195,6 +195,46 @@ TEST_F(RolloutBatchApi, CubatureSelectionAndWeightsFitTheAllPointSums) {
   }
 }
 
+// The Galerkin step's weights fitted to the grid step's force (CubatureTarget::Grid), from the reduced motion and
+// from the training states: the force gets weights of its own, fitted to the force Algorithm 1's all-point sub-step
+// applies, and the mass matrix and momentum theirs. Over every point the masses solve the mass and momentum blocks
+// exactly (misfit: the normal equations' ridge, as in the test above); the force block's misfit stays below 1 (a
+// sign error leaves it at 1: no non-negative weights fit an opposite force). The selection's samples are the force
+// fit's active set. The grid step's own snapshots and the full-order runs are refused.
+TEST_F(RolloutBatchApi, GalerkinWeightsFitTheGridStepsForce) {
+  const Model model = load_model(model_path());
+  CubatureSnapshots reduced;
+  reduced.scene_path = scene_path();
+  reduced.count = 2;
+  reduced.settings.method = RomMethod::Galerkin;
+  reduced.settings.cubature_target = CubatureTarget::Grid;
+  CubatureSnapshots states = reduced;
+  states.settings.snapshot_source = SnapshotSource::States;
+  std::vector<int> all(model.num_points());
+  std::iota(all.begin(), all.end(), 0);
+  for (const CubatureSnapshots& snapshots : {reduced, states}) {
+    const std::string source = to_string(snapshots.settings.snapshot_source);
+    const CubatureFit every = cubature_weights(model, snapshots, all);
+    ASSERT_EQ(every.misfits.size(), 3u) << source;
+    ASSERT_EQ(every.force_weights.size(), all.size()) << source;
+    EXPECT_LE(every.misfits[0], 1e-4) << source;
+    EXPECT_LE(every.misfits[1], 1e-4) << source;
+    EXPECT_LT(every.misfits[2], 0.5) << source;
+    // the samples are the force fit's active set; the mass and momentum weights on them may be 0
+    const CubatureFit few = cubature_selection(model, snapshots, 6);
+    ASSERT_FALSE(few.samples.empty()) << source;
+    ASSERT_EQ(few.force_weights.size(), few.samples.size()) << source;
+    for (const double w : few.force_weights) EXPECT_GT(w, 0.0) << source;
+    for (const double w : few.weights) EXPECT_GE(w, 0.0) << source;
+  }
+  RomSettings grid_step = reduced.settings;
+  grid_step.method = RomMethod::MaterialPoint;
+  EXPECT_THROW(grid_step.validate(), std::invalid_argument);
+  RomSettings from_runs = reduced.settings;
+  from_runs.snapshot_source = SnapshotSource::Full;
+  EXPECT_THROW(from_runs.validate(), std::invalid_argument);
+}
+
 // Greedy selection on the projection, over the reduced motion and over the training states (one sub-step from each):
 // as many samples as asked for, distinct, weighted by their masses; with every point as a candidate taken, the
 // samples' projection is the all-point one, so the error is only the selection's ridge (1e-8 of the trace, relative

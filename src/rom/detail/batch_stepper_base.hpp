@@ -42,7 +42,8 @@ class BatchStepperBase {
   virtual bool advance_frame() = 0;
   // One sub-step of the current output interval's time step from the current state, leaving the frame, the step
   // count and the outcomes as they were: the offline fits' snapshots of one step from given states (rom/cubature.cpp).
-  virtual void probe_substep() = 0;
+  // Returns the sub-step's time step (0: none, at the horizon).
+  virtual double probe_substep() = 0;
   // The latent state and its rate now, (rollouts, r) row-major each.
   virtual void latent(std::vector<double>& xhat, std::vector<double>& xhatdot) const = 0;
   // The same for one rollout (r values each): copies that rollout's row only.

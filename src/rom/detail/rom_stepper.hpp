@@ -87,7 +87,7 @@ class BatchStepper final : public BatchStepperBase {
         domain_(reference_domain(scene)),
         max_failed_inversions_(int(std::floor(settings.max_failed_inversions * K_))) {
     const int r = latent_dim, B = B_, S = S_, K = K_;
-    std::vector<double> X_src, mass_src, volume_src, X_samples, weight_samples;
+    std::vector<double> X_src, mass_src, volume_src, X_samples, weight_samples, force_weight_samples;
     for (const int p : h.source_points) {
       X_src.insert(X_src.end(), model.X.begin() + 3 * p, model.X.begin() + 3 * p + 3);
       mass_src.push_back(model.mass[p]);
@@ -97,12 +97,14 @@ class BatchStepper final : public BatchStepperBase {
       const int s = h.samples[i];
       X_samples.insert(X_samples.end(), model.X.begin() + 3 * s, model.X.begin() + 3 * s + 3);
       weight_samples.push_back(h.weights.empty() ? model.mass[s] : h.weights[i]);
+      force_weight_samples.push_back(h.force_weights.empty() ? weight_samples.back() : h.force_weights[i]);
     }
     points_X_ = upload<Matrix>("mpmrom::rom::source_X", X_src, X_src.size() / 3, 3);
     points_mass_ = upload<Vector>("mpmrom::rom::source_mass", mass_src, mass_src.size());
     points_volume_ = upload<Vector>("mpmrom::rom::source_volume", volume_src, volume_src.size());
     samples_X_ = upload<Matrix>("mpmrom::rom::samples_X", X_samples, S, 3);
     samples_weight_ = upload<Vector>("mpmrom::rom::samples_weight", weight_samples, S);
+    samples_force_weight_ = upload<Vector>("mpmrom::rom::samples_force_weight", force_weight_samples, S);
     if (galerkin_) sample_force_ = Matrix("mpmrom::rom::sample_force", B, std::size_t(S) * r);
     quadrature_x_ = upload<Matrix>("mpmrom::rom::quadrature_x", h.quadrature_x, h.quadrature_weight.size(), 3);
     quadrature_w_ = upload<Vector>("mpmrom::rom::quadrature_w", h.quadrature_weight, h.quadrature_weight.size());
@@ -189,11 +191,13 @@ class BatchStepper final : public BatchStepperBase {
     return true;
   }
 
-  void probe_substep() override {
-    if (frame_ + 1 >= frames()) return;
+  double probe_substep() override {
+    if (frame_ + 1 >= frames()) return 0;
     const double time = times_[std::size_t(frame_)], interval = times_[std::size_t(frame_ + 1)] - time;
     const double dt_max = cfl_ * dx_ / (wave_speed_ + double(max_speed_));
-    substep(real_t(time), real_t(interval / std::max(1.0, std::ceil(interval / dt_max - 1e-9))));
+    const real_t dt = real_t(interval / std::max(1.0, std::ceil(interval / dt_max - 1e-9)));
+    substep(real_t(time), dt);
+    return double(dt);
   }
 
   void latent(std::vector<double>& xhat, std::vector<double>& xhatdot) const override {
@@ -380,9 +384,26 @@ class BatchStepper final : public BatchStepperBase {
       Kokkos::parallel_for("mpmrom::rom::project",
                            Teams(space, B, Kokkos::AUTO, projection_lanes_)
                                .set_scratch_size(0, Kokkos::PerTeam(Projection::scratch_bytes())),
-                           Projection{r, samples_weight_, sample_J_, sample_v_, sample_x_, trial_x_, xhat_, xhatdot_,
-                                      xhat_next_, xhatdot_next_, guard_, real_t(settings_.rate_damping), dt, first_pass,
-                                      positions && !first_pass, flags_, max_condition_, regularized_, sample_force_});
+                           Projection{r,
+                                      samples_weight_,
+                                      sample_J_,
+                                      sample_v_,
+                                      sample_x_,
+                                      trial_x_,
+                                      xhat_,
+                                      xhatdot_,
+                                      xhat_next_,
+                                      xhatdot_next_,
+                                      guard_,
+                                      real_t(settings_.rate_damping),
+                                      dt,
+                                      first_pass,
+                                      positions && !first_pass,
+                                      flags_,
+                                      max_condition_,
+                                      regularized_,
+                                      sample_force_,
+                                      samples_force_weight_});
     };
     project(true);
     // Re-project with J at the trial next state, so that the new state's own velocity field J(xhat_n+1) xhatdot
@@ -433,7 +454,7 @@ class BatchStepper final : public BatchStepperBase {
   real_t max_speed_ = 0;  // fastest sample at the end of the last frame, for the next frame's time step
 
   Matrix points_X_, samples_X_, quadrature_x_;
-  Vector points_mass_, points_volume_, quadrature_w_, samples_weight_;
+  Vector points_mass_, points_volume_, quadrature_w_, samples_weight_, samples_force_weight_;
   Matrix sample_force_;  // the Galerkin step's reduced force per unit mass at each sample (rollouts, samples * r)
   IndexView nodes_, offsets_, node_sources_, node_slot_;
   Kokkos::View<rom::RolloutLoads*, MemorySpace> loads_;

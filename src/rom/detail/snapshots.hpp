@@ -21,6 +21,9 @@ struct PointSnapshot {
   const double* reduced = nullptr;
   const std::vector<int>* points = nullptr;
   double mass_scale = 1;
+  // The all-point sums' reduced force per unit mass where it is another step's than the samples' (the grid step's,
+  // CubatureTarget::Grid; null: reduced).
+  const double* reduced_target = nullptr;
   std::size_t blocks() const { return fields.size() + (reduced != nullptr ? 1 : 0); }
   std::size_t rows(std::size_t num_points) const { return points ? points->size() : num_points; }
   std::size_t point(std::size_t row) const { return points ? std::size_t((*points)[row]) : row; }

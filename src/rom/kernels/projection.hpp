@@ -102,6 +102,7 @@ struct ProjectSamples {
   // The Galerkin step's (galerkin.hpp): each sample's reduced force per unit mass, (rollouts, samples * r), whose
   // weighted sum times dt joins the velocity's right-hand side; empty: none.
   BatchMatrix<MemorySpace> sample_force = {};
+  Kokkos::View<const real_t*, MemorySpace> force_weight = {};  // (samples): the forces' weights (the Galerkin step's)
 
   static std::size_t scratch_bytes() { return scratch_view::shmem_size(lda * lda + 2 * lda); }
 
@@ -162,7 +163,7 @@ struct ProjectSamples {
               const real_t target = column == 0 ? v : sample_x(b, s, k) + dt * v - evaluated_x(b, s, k);
               partial += weight(s) * sample_J(b, s, k, i) * target;
               if (column == 0 && k == 0 && sample_force.extent(0) > 0)
-                partial += weight(s) * dt * sample_force(b, s * r + i);
+                partial += force_weight(s) * dt * sample_force(b, s * r + i);
             },
             sum);
         Kokkos::single(Kokkos::PerThread(team), [&]() { shared[lda * lda + column * lda + i] = sum; });
