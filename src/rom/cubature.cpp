@@ -16,10 +16,10 @@ namespace {
 using impl::PointSnapshot;
 using impl::SnapshotStream;
 
-// The cubature's least-squares system over the candidate points, E w = f, where E's
-// column c holds candidate c's quantities at every snapshot (the upper triangle of J^T J, then J^T of each field)
-// and f the all-point mass-weighted sums; each block's rows are scaled by its sums' norm, so that each counts as one
-// relative misfit. E and f are kept for the misfits.
+// The cubature's least-squares system over the candidate points, E w = f: E's column c holds candidate c's
+// quantities at every snapshot (the upper triangle of J^T J, then J^T of each field, then the Galerkin force) and f
+// the all-point mass-weighted sums; each block's rows are scaled by its sums' norm, so that each counts as one
+// relative misfit. The fits form normal equations from the blocks and columns they take (normal_equations).
 struct CubatureSystem {
   int r = 0;
   std::size_t rows = 0, columns = 0, per_snapshot = 0;
