@@ -25,8 +25,8 @@ struct Options {
   std::string model_path, scene_path;
   RomSettings rom_settings;
   std::string rom_method = "point", rom_selection = "greedy-projection", rom_projection = "velocity",
-              rom_weights = "auto", cubature_snapshots = "reduced", cubature_target = "own", params_path, rom_path,
-              decode_mode = "none";
+              rom_weights = "auto", cubature_snapshots = "reduced", cubature_target = "own",
+              galerkin_strain = "continuum", params_path, rom_path, decode_mode = "none";
   std::vector<std::string> rom_data;
   double decode_spacing = 0;
   bool rollout_json = false;
@@ -134,6 +134,7 @@ int run(Options o, const Context& context) {
   o.rom_settings.weighting = mpmrom::sample_weighting_from_string(o.rom_weights);
   o.rom_settings.snapshot_source = mpmrom::snapshot_source_from_string(o.cubature_snapshots);
   o.rom_settings.cubature_target = mpmrom::cubature_target_from_string(o.cubature_target);
+  o.rom_settings.galerkin_strain = mpmrom::galerkin_strain_from_string(o.galerkin_strain);
   o.rom_settings.validate();
   const mpmrom::Model model = mpmrom::load_model(o.model_path);
   const mpmrom::Scene scene = mpmrom::load_scene(o.scene_path);
@@ -247,6 +248,9 @@ void add_rollout(CLI::App& app, Commands& commands) {
   add_defaulted(command, "--cubature-target", o->cubature_target,
                 "With --method galerkin: what its cubature weights reproduce, its own all-point reduced force (own) "
                 "or the grid step's, Algorithm 1 with every point (grid)");
+  add_defaulted(command, "--galerkin-strain", o->galerkin_strain,
+                "With --method galerkin: the deformation gradient its energy is taken at, the manifold's own at each "
+                "sample (continuum) or MPM's, from the displacements of the grid nodes around it (grid)");
   add_defaulted(command, "--rate-damping", o->rom_settings.rate_damping,
                 "Tikhonov weight toward the previous latent rate, relative to the normal matrix's mean eigenvalue");
   command->add_option("--max-condition", o->rom_settings.max_condition,

@@ -40,6 +40,13 @@ enum class CubatureTarget { Own, Grid };
 CubatureTarget cubature_target_from_string(const std::string& name);  // "own" or "grid"
 std::string to_string(CubatureTarget target);
 
+// The deformation gradient the Galerkin step's energy is taken at: the manifold's own, dg/dX at each sample
+// (Continuum), or MPM's, the gradient of the displacements of the grid nodes around the sample in the reference
+// configuration with the quadratic B-splines (Grid; docs/rom.md "Galerkin step").
+enum class GalerkinStrain { Continuum, Grid };
+GalerkinStrain galerkin_strain_from_string(const std::string& name);  // "continuum" or "grid"
+std::string to_string(GalerkinStrain strain);
+
 // The samples' weights in the projection: their masses, empirical cubature weights fitted to snapshots, or (Auto) the
 // weights the selection fits with its samples (greedy projection, cubature) and the masses otherwise.
 enum class SampleWeighting { Mass, Cubature, Auto };
@@ -73,7 +80,8 @@ struct RomSettings {
   SampleWeighting weighting = SampleWeighting::Auto;
   // What the cubature and the greedy projection selection fit (--cubature-snapshots, docs/rom.md "Sample weights").
   SnapshotSource snapshot_source = SnapshotSource::Reduced;
-  CubatureTarget cubature_target = CubatureTarget::Own;  // --method galerkin's weights (--cubature-target)
+  CubatureTarget cubature_target = CubatureTarget::Own;        // --method galerkin's weights (--cubature-target)
+  GalerkinStrain galerkin_strain = GalerkinStrain::Continuum;  // --method galerkin's energy (--galerkin-strain)
   double max_condition = 0;   // regularise the normal equations above this estimate (0: 0.01 / epsilon)
   double regularization = 0;  // mu = regularization * trace / r (0: 100 epsilon)
   // Safeguards and detectors (docs/stability.md).

@@ -81,6 +81,14 @@ CubatureTarget cubature_target_from_string(const std::string& name) {
 
 std::string to_string(CubatureTarget target) { return target == CubatureTarget::Own ? "own" : "grid"; }
 
+GalerkinStrain galerkin_strain_from_string(const std::string& name) {
+  if (name == "continuum") return GalerkinStrain::Continuum;
+  if (name == "grid") return GalerkinStrain::Grid;
+  throw std::invalid_argument("Galerkin strain must be 'continuum' or 'grid', not '" + name + "'");
+}
+
+std::string to_string(GalerkinStrain strain) { return strain == GalerkinStrain::Continuum ? "continuum" : "grid"; }
+
 std::string to_string(SampleWeighting weighting) {
   return weighting == SampleWeighting::Mass ? "mass" : weighting == SampleWeighting::Cubature ? "cubature" : "auto";
 }
@@ -108,6 +116,7 @@ nlohmann::json RomSettings::to_json() const {
           {"weights", to_string(fitted_weights(*this))},
           {"cubature_snapshots", to_string(snapshot_source)},
           {"cubature_target", to_string(cubature_target)},
+          {"galerkin_strain", to_string(galerkin_strain)},
           {"max_condition", max_condition},
           {"regularization", regularization},
           {"regularize", regularize},
@@ -133,6 +142,8 @@ void RomSettings::validate() const {
     throw std::invalid_argument("--cubature-target grid is for --method galerkin (the grid methods fit the grid step)");
   if (cubature_target == CubatureTarget::Grid && snapshot_source == SnapshotSource::Full)
     throw std::invalid_argument("--cubature-target grid takes --cubature-snapshots reduced or states");
+  if (galerkin_strain == GalerkinStrain::Grid && method != RomMethod::Galerkin)
+    throw std::invalid_argument("--galerkin-strain grid is for --method galerkin");
   if (newton_iterations < 1) throw std::invalid_argument("--newton-iterations must be >= 1");
   if (max_condition < 0 || regularization < 0)
     throw std::invalid_argument("--max-condition and --regularization must be >= 0");

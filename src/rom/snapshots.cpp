@@ -151,6 +151,7 @@ std::unique_ptr<impl::BatchStepperBase> grid_target_stepper(const Model& model, 
   RomSettings grid = settings;
   grid.method = RomMethod::MaterialPoint;
   grid.cubature_target = CubatureTarget::Own;
+  grid.galerkin_strain = GalerkinStrain::Continuum;
   return snapshot_stepper(model, scene_path, scene, grid, cases, points);
 }
 

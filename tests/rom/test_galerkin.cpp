@@ -1,5 +1,6 @@
 // The Galerkin step's reduced force (rom/kernels/galerkin.hpp): minus the gradient of the samples' elastic energy,
-// checked against central differences of that energy, plus the loads' generalised force.
+// checked against central differences of that energy, plus the loads' generalised force, with the manifold's own
+// strain and with the grid strain; and the grid strain's stencils (rom/detail/grid_strain.cpp) on a lattice.
 #include <gtest/gtest.h>
 
 #include <Kokkos_Core.hpp>
@@ -8,6 +9,7 @@
 #include <limits>
 #include <vector>
 
+#include "rom/detail/grid_strain.hpp"
 #include "rom/kernels/galerkin.hpp"
 
 namespace mpmrom::test {
@@ -60,75 +62,183 @@ double elastic_energy(const std::vector<double>& X, const std::vector<double>& v
   return energy;
 }
 
-TEST(RomGalerkin, ReducedForceIsMinusTheEnergyGradientPlusTheLoads) {
-  using ExecutionSpace = Kokkos::DefaultExecutionSpace;
-  using MemorySpace = ExecutionSpace::memory_space;
-  constexpr int S = 6, r = 3;
+// The grid strain of one sample: F = I + sum_n u_n (x) grad N_n(X_s) over its stencil rows (grid_strain_stencils'
+// layout), each node displaced as the bending map moves its centroid where the row leaves the axis free.
+Mat3<double> grid_strain(const double Xs[3], const double* rows, const GridGeometry<real_t>& grid,
+                         const double xhat[3]) {
+  const auto stencil =
+      quadratic_stencil(Vec3<double>{{Xs[0], Xs[1], Xs[2]}},
+                        Vec3<double>{{grid.origin[0], grid.origin[1], grid.origin[2]}}, 1 / double(grid.dx));
+  Mat3<double> F = Mat3<double>::identity();
+  for (int n = 0; n < 27; ++n) {
+    const double* row = rows + n * impl::grid_strain_node_values;
+    const double u[3] = {xhat[0] * row[2] * row[2], xhat[1] * row[2] * row[2], xhat[2] * row[2]};
+    const Vec3<double> grad = stencil.gradient(n / 9, (n / 3) % 3, n % 3);
+    for (int a = 0; a < 3; ++a)
+      for (int c = 0; c < 3; ++c) F(a, c) += row[3 + a] * u[a] * grad[c];
+  }
+  return F;
+}
+
+// The samples' elastic energy sum_s V0_s psi(F_s(xhat)) with the grid strain, in double.
+double grid_elastic_energy(const std::vector<double>& X, const std::vector<double>& volume,
+                           const std::vector<double>& rows, const GridGeometry<real_t>& grid, const double xhat[3],
+                           const ElasticMaterial<double>& material) {
+  double energy = 0;
+  for (std::size_t s = 0; s < volume.size(); ++s) {
+    const double* stencil_rows = &rows[s * 27 * impl::grid_strain_node_values];
+    energy += volume[s] * energy_density(material, grid_strain(&X[3 * s], stencil_rows, grid, xhat));
+  }
+  return energy;
+}
+
+// Six samples of the bending map under gravity and a force on the points above z = 0.25.
+class GalerkinForce : public ::testing::Test {
+ protected:
+  static constexpr int S = 6, r = 3;
   const double density = 100, xhat_host[r] = {0.4, -0.3, 0.2};
   const std::vector<double> X = {0.1,  0,    0.05, -0.1,  0.05, 0.2, 0, -0.1, 0.35,
                                  0.05, 0.05, 0.4,  -0.05, 0,    0.1, 0, 0,    0.3};
-  std::vector<double> mass(S), volume(S);
-  for (int s = 0; s < S; ++s) mass[s] = 0.01 * (1 + s), volume[s] = mass[s] / density;
-  const auto material = elastic_material(ElasticModel::FixedCorotated, real_t(12500), real_t(0.3));
+  std::vector<double> mass = std::vector<double>(S), volume = std::vector<double>(S);
+  const ElasticMaterial<real_t> material = elastic_material(ElasticModel::FixedCorotated, real_t(12500), real_t(0.3));
   const ElasticMaterial<double> material_double{material.model, double(material.mu), double(material.lambda)};
+  const GridGeometry<real_t> grid{{{real_t(-0.5), real_t(-0.5), real_t(-0.5)}}, real_t(0.05), real_t(20), {21, 21, 21}};
 
-  rom::RolloutLoads load{};
-  load.gravity = {{0, 0, real_t(-9.81)}};
-  load.num_forces = 1;  // (1, 2, 3) N/kg on the points above z = 0.25, during [0, 1)
-  const real_t box[6] = {-1, -1, real_t(0.25), 1, 1, 1}, per_mass[3] = {1, 2, 3};
-  for (int d = 0; d < 6; ++d) load.force_box[d] = box[d];
-  for (int d = 0; d < 3; ++d) load.force_per_mass[d] = per_mass[d];
-  load.force_window[0] = 0;
-  load.force_window[1] = 1;
-
-  Kokkos::View<real_t**, Kokkos::LayoutRight, MemorySpace> Xv("X", S, 3);
-  rom::BatchMatrix<MemorySpace> xhat("xhat", 1, r), xhatdot("xhatdot", 1, r), force("force", 1, S * r);
-  Kokkos::View<rom::RolloutLoads*, MemorySpace> loads("loads", 1);
-  rom::BatchVectors<MemorySpace> x("x", 1, S, 3), v("v", 1, S, 3);
-  rom::BatchJacobians<MemorySpace> J("J", 1, S, 3, r);
-  Kokkos::View<int*, MemorySpace> flags("flags", 1);
-  {
-    auto hX = Kokkos::create_mirror_view(Xv);
-    for (int s = 0; s < S; ++s)
-      for (int d = 0; d < 3; ++d) hX(s, d) = real_t(X[3 * s + d]);
-    Kokkos::deep_copy(Xv, hX);
-    auto hxhat = Kokkos::create_mirror_view(xhat);
-    for (int q = 0; q < r; ++q) hxhat(0, q) = real_t(xhat_host[q]);
-    Kokkos::deep_copy(xhat, hxhat);
-    auto hloads = Kokkos::create_mirror_view(loads);
-    hloads(0) = load;
-    Kokkos::deep_copy(loads, hloads);
+  void SetUp() override {
+    for (int s = 0; s < S; ++s) mass[s] = 0.01 * (1 + s), volume[s] = mass[s] / density;
   }
-  real_t fastest = 0;
-  Kokkos::parallel_reduce(
-      Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>>(0, S),
-      rom::GalerkinSampleTerms<BendingManifold, MemorySpace>{BendingManifold{}, Xv, xhat, xhatdot, loads, material,
-                                                             real_t(density), real_t(0.5), x, v, J, force, flags},
-      Kokkos::Max<real_t>(fastest));
-  const auto q = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), force);
-  ASSERT_EQ(Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), flags)(0), 0);
 
+  // The kernel's reduced force per unit mass at each sample (S * r), with the grid strain when rows are given.
+  std::vector<double> reduced_forces(const std::vector<double>& rows) const {
+    using ExecutionSpace = Kokkos::DefaultExecutionSpace;
+    using MemorySpace = ExecutionSpace::memory_space;
+    rom::RolloutLoads load{};
+    load.gravity = {{0, 0, real_t(-9.81)}};
+    load.num_forces = 1;  // (1, 2, 3) N/kg on the points above z = 0.25, during [0, 1)
+    const real_t box[6] = {-1, -1, real_t(0.25), 1, 1, 1}, per_mass[3] = {1, 2, 3};
+    for (int d = 0; d < 6; ++d) load.force_box[d] = box[d];
+    for (int d = 0; d < 3; ++d) load.force_per_mass[d] = per_mass[d];
+    load.force_window[0] = 0;
+    load.force_window[1] = 1;
+
+    Kokkos::View<real_t**, Kokkos::LayoutRight, MemorySpace> Xv("X", S, 3);
+    rom::BatchMatrix<MemorySpace> xhat("xhat", 1, r), xhatdot("xhatdot", 1, r), force("force", 1, S * r);
+    Kokkos::View<rom::RolloutLoads*, MemorySpace> loads("loads", 1);
+    rom::BatchVectors<MemorySpace> x("x", 1, S, 3), v("v", 1, S, 3);
+    rom::BatchJacobians<MemorySpace> J("J", 1, S, 3, r);
+    Kokkos::View<int*, MemorySpace> flags("flags", 1);
+    Kokkos::View<real_t***, Kokkos::LayoutRight, MemorySpace> stencils("stencils", rows.empty() ? 0 : S, 27,
+                                                                       impl::grid_strain_node_values);
+    {
+      auto hX = Kokkos::create_mirror_view(Xv);
+      for (int s = 0; s < S; ++s)
+        for (int d = 0; d < 3; ++d) hX(s, d) = real_t(X[3 * s + d]);
+      Kokkos::deep_copy(Xv, hX);
+      auto hxhat = Kokkos::create_mirror_view(xhat);
+      for (int q = 0; q < r; ++q) hxhat(0, q) = real_t(xhat_host[q]);
+      Kokkos::deep_copy(xhat, hxhat);
+      auto hloads = Kokkos::create_mirror_view(loads);
+      hloads(0) = load;
+      Kokkos::deep_copy(loads, hloads);
+      auto hstencils = Kokkos::create_mirror_view(stencils);
+      for (std::size_t i = 0; i < hstencils.size(); ++i) hstencils.data()[i] = real_t(rows[i]);
+      Kokkos::deep_copy(stencils, hstencils);
+    }
+    real_t fastest = 0;
+    Kokkos::parallel_reduce(Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>>(0, S),
+                            rom::GalerkinSampleTerms<BendingManifold, MemorySpace>{
+                                BendingManifold{}, Xv, xhat, xhatdot, loads, material, real_t(density), real_t(0.5), x,
+                                v, J, force, flags, stencils, grid},
+                            Kokkos::Max<real_t>(fastest));
+    EXPECT_EQ(Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), flags)(0), 0);
+    const auto q = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), force);
+    return std::vector<double>(q.data(), q.data() + q.size());
+  }
+
+  // The reduced force against minus the central differences of energy(xhat) plus the loads' generalised force.
   // Central differences in double: truncation h^2 |E'''| / 6 and rounding eps_d |E| / h, both below 1e-9 of the
   // force at h = 1e-5 on this O(1) strain; the kernel's own rounding in real_t is a few hundred eps of the terms.
-  const double h = 1e-5, eps = std::numeric_limits<real_t>::epsilon();
-  for (int k = 0; k < r; ++k) {
-    double plus[r], minus[r];
-    for (int q = 0; q < r; ++q) plus[q] = minus[q] = xhat_host[q];
-    plus[k] += h;
-    minus[k] -= h;
-    double expected =
-        -(elastic_energy(X, volume, plus, material_double) - elastic_energy(X, volume, minus, material_double)) /
-        (2 * h);
-    double computed = 0, scale = std::fabs(expected);
-    for (int s = 0; s < S; ++s) {
-      const double Z = X[3 * s + 2], column[3] = {Z * Z, Z * Z, Z};
-      const double body[3] = {Z >= 0.25 ? 1.0 : 0.0, Z >= 0.25 ? 2.0 : 0.0, (Z >= 0.25 ? 3.0 : 0.0) - 9.81};
-      expected += mass[s] * column[k] * body[k];
-      computed += mass[s] * double(q(0, s * r + k));
-      scale += mass[s] * std::fabs(column[k] * body[k]);
+  template <class Energy>
+  void expect_energy_gradient(const std::vector<double>& q, const Energy& energy) const {
+    const double h = 1e-5, eps = std::numeric_limits<real_t>::epsilon();
+    for (int k = 0; k < r; ++k) {
+      double plus[r], minus[r];
+      for (int i = 0; i < r; ++i) plus[i] = minus[i] = xhat_host[i];
+      plus[k] += h;
+      minus[k] -= h;
+      double expected = -(energy(plus) - energy(minus)) / (2 * h);
+      double computed = 0, scale = std::fabs(expected);
+      for (int s = 0; s < S; ++s) {
+        const double Z = X[3 * s + 2], column[3] = {Z * Z, Z * Z, Z};
+        const double body[3] = {Z >= 0.25 ? 1.0 : 0.0, Z >= 0.25 ? 2.0 : 0.0, (Z >= 0.25 ? 3.0 : 0.0) - 9.81};
+        expected += mass[s] * column[k] * body[k];
+        computed += mass[s] * q[std::size_t(s * r + k)];
+        scale += mass[s] * std::fabs(column[k] * body[k]);
+      }
+      EXPECT_NEAR(computed, expected, (1e-9 + 300 * eps) * scale) << "xhat component " << k;
     }
-    EXPECT_NEAR(computed, expected, (1e-9 + 300 * eps) * scale) << "xhat component " << k;
   }
+};
+
+TEST_F(GalerkinForce, ReducedForceIsMinusTheEnergyGradientPlusTheLoads) {
+  expect_energy_gradient(reduced_forces({}),
+                         [&](const double* xhat) { return elastic_energy(X, volume, xhat, material_double); });
+}
+
+// Any centroids and held axes: the grid strain's force is still the gradient of its energy.
+TEST_F(GalerkinForce, GridStrainForceIsMinusItsEnergyGradientPlusTheLoads) {
+  std::vector<double> rows(std::size_t(S) * 27 * impl::grid_strain_node_values);
+  for (std::size_t i = 0; i < rows.size() / impl::grid_strain_node_values; ++i) {
+    double* row = &rows[i * impl::grid_strain_node_values];
+    const std::size_t s = i / 27;
+    for (int d = 0; d < 3; ++d) row[d] = X[3 * s + d] + 0.01 * std::sin(double(7 * i + d));  // a centroid nearby
+    for (int d = 0; d < 3; ++d) row[3 + d] = (i + d) % 5 == 0 ? 0 : 1;                       // some axes held
+  }
+  expect_energy_gradient(reduced_forces(rows), [&](const double* xhat) {
+    return grid_elastic_energy(X, volume, rows, grid, xhat, material_double);
+  });
+}
+
+// On a lattice of equal masses: an interior node's centroid is the node, a node beyond the body's face has its
+// centroid inside, the held layer's nodes are held, and F of a linear map comes out exact at an interior sample.
+TEST(GridStrainStencils, CentroidsHeldNodesAndLinearFieldsOnALattice) {
+  const GridGeometry<real_t> grid{{{real_t(-0.5), real_t(-0.5), real_t(-0.5)}}, real_t(0.1), real_t(10), {11, 11, 11}};
+  std::vector<double> X, mass;
+  for (int i = 0; i < 12; ++i)  // a cube [-0.275, 0.275]^3 of points half a cell apart
+    for (int j = 0; j < 12; ++j)
+      for (int k = 0; k < 12; ++k) {
+        X.insert(X.end(), {-0.275 + 0.05 * i, -0.275 + 0.05 * j, -0.275 + 0.05 * k});
+        mass.push_back(1);
+      }
+  rom::RolloutLoads loads{};
+  loads.boundary.num_dirichlet = 1;  // the layer of nodes at z = -0.3 held
+  const real_t held[6] = {-1, -1, real_t(-0.35), 1, 1, real_t(-0.25)};
+  for (int d = 0; d < 6; ++d) loads.boundary.dirichlet_box[d] = held[d];
+  loads.dirichlet_window[0] = 0;
+  loads.dirichlet_window[1] = real_t(1e30);
+  const std::vector<double> samples = {0.025, 0.025, 0.025, 0.225, 0.025, -0.225};
+  const auto rows = impl::grid_strain_stencils(grid, loads, 1.0, X, mass, samples);
+  ASSERT_EQ(rows.size(), 2u * 27 * impl::grid_strain_node_values);
+  // Centroids are weighted means of coordinates within 0.3 of the node: rounding of a few eps of 1 in real_t.
+  const double tolerance = 50 * std::numeric_limits<real_t>::epsilon();
+  const auto node = [&](int s, int n) { return &rows[(std::size_t(s) * 27 + std::size_t(n)) * 6]; };
+  // Sample 0 at the lattice's centre: its stencil's nodes (-0.1 .. 0.1) see symmetric lattices.
+  for (int n = 0; n < 27; ++n) {
+    const double expected[3] = {-0.1 + 0.1 * (n / 9), -0.1 + 0.1 * ((n / 3) % 3), -0.1 + 0.1 * (n % 3)};
+    for (int d = 0; d < 3; ++d) EXPECT_NEAR(node(0, n)[d], expected[d], tolerance) << "node " << n;
+    for (int d = 0; d < 3; ++d) EXPECT_EQ(node(0, n)[3 + d], 1.0);
+  }
+  // Sample 1 near the +x face (x = 0.275): its stencil's x = 0.3 nodes lie beyond it, their centroids inside.
+  EXPECT_LT(node(1, 18)[0], 0.275);
+  EXPECT_GT(node(1, 18)[0], 0.2);
+  // ... and near the bottom: its z = -0.3 nodes are held on every axis, the others free.
+  for (int n = 0; n < 27; ++n)
+    for (int d = 0; d < 3; ++d) EXPECT_EQ(node(1, n)[3 + d], n % 3 == 0 ? 0.0 : 1.0) << "node " << n;
+  // A stretch along z, linear in X (the bending map at xhat = (0, 0, c)), at the centre: F = diag(1, 1, 1 + c).
+  const double xhat[3] = {0, 0, 0.2};
+  const Mat3<double> F = grid_strain(&samples[0], node(0, 0), grid, xhat);
+  for (int a = 0; a < 3; ++a)
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(F(a, c), a == c ? (a == 2 ? 1.2 : 1.0) : 0.0, tolerance);
 }
 
 }  // namespace

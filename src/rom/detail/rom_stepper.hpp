@@ -17,6 +17,7 @@
 
 #include "fom/fom.hpp"
 #include "rom/detail/batch_stepper_base.hpp"
+#include "rom/detail/grid_strain.hpp"
 #include "manifold/device_data.hpp"
 #include "rom/kernels/galerkin.hpp"
 #include "rom/kernels/projection.hpp"
@@ -106,6 +107,11 @@ class BatchStepper final : public BatchStepperBase {
     samples_weight_ = upload<Vector>("mpmrom::rom::samples_weight", weight_samples, S);
     samples_force_weight_ = upload<Vector>("mpmrom::rom::samples_force_weight", force_weight_samples, S);
     if (galerkin_) sample_force_ = Matrix("mpmrom::rom::sample_force", B, std::size_t(S) * r);
+    if (galerkin_ && settings.galerkin_strain == GalerkinStrain::Grid)
+      stencil_nodes_ =
+          upload<Cube>("mpmrom::rom::stencil_nodes",
+                       grid_strain_stencils(grid_, host_loads.at(0), times_.back(), model.X, model.mass, X_samples), S,
+                       27, grid_strain_node_values);
     quadrature_x_ = upload<Matrix>("mpmrom::rom::quadrature_x", h.quadrature_x, h.quadrature_weight.size(), 3);
     quadrature_w_ = upload<Vector>("mpmrom::rom::quadrature_w", h.quadrature_weight, h.quadrature_weight.size());
     nodes_ = upload_indices("mpmrom::rom::nodes", h.nodes);
@@ -374,7 +380,7 @@ class BatchStepper final : public BatchStepperBase {
       Kokkos::parallel_reduce("mpmrom::rom::galerkin_terms", Range(space, 0, long(B) * S),
                               rom::GalerkinSampleTerms<Manifold, MemorySpace>{
                                   manifold_, samples_X_, xhat_, xhatdot_, loads_, material_, density_, t, sample_x_,
-                                  sample_v_, sample_J_, sample_force_, flags_},
+                                  sample_v_, sample_J_, sample_force_, flags_, stencil_nodes_, grid_},
                               Kokkos::Max<real_t, MemorySpace>(fastest_sample_));
     else
       transfer(space, t, dt);
@@ -461,6 +467,7 @@ class BatchStepper final : public BatchStepperBase {
   Matrix xhat_, xhatdot_, xhat_next_, xhatdot_next_;
   rom::SourceView<MemorySpace> sources_;
   Cube sample_x_, sample_v_, node_v_, trial_x_, reference_;
+  Cube stencil_nodes_;  // the Galerkin step's grid strain (GalerkinStrain::Grid); empty otherwise
   Quad sample_J_;
   Kokkos::View<unsigned char**, MemorySpace> converged_;
   Kokkos::View<int*, MemorySpace> failures_, flags_, step_failures_, fallbacks_, regularized_;

@@ -1,16 +1,23 @@
 // The Galerkin step's per-sample terms (RomMethod::Galerkin, docs/rom.md "Galerkin step"): the reduced equations of
-// motion on the manifold, d/dt (M xhatdot) = f, with the energy E(xhat) = sum_p V_p psi(F_p(xhat)) of the manifold's
-// own deformation gradients and the external loads, assembled by cubature over the samples without a grid:
+// motion on the manifold, d/dt (M xhatdot) = f, with the energy E(xhat) = sum_p V_p psi(F_p(xhat)) and the external
+// loads, assembled by cubature over the samples without a grid:
 //   f = sum_s w_s m_s q_s,   q_s = -(1 / rho0) P(F_s) : dF_s/dxhat + J_s^T (b(X_s, t) + gravity),
 //   M = sum_s w_s m_s J_s^T J_s,
-// with P the first Piola-Kirchhoff stress and w_s the cubature weight (1: every point). The projection
-// (projection.hpp) then solves M(xhat_n+1) xhatdot_n+1 = sum_s w_s m_s J_s(xhat_n+1)^T v_s + dt f,
+// with P the first Piola-Kirchhoff stress and w_s the cubature weight (1: every point). F_s is the manifold's own
+// dg/dX at the sample (GalerkinStrain::Continuum; dF/dxhat_k is the kinematics' Fdot along the unit rate e_k, the
+// network run r + 1 times), or MPM's (GalerkinStrain::Grid): F_s = I + sum_i u_i (x) grad_X N_i(X_s) over the 27 nodes
+// of the sample's stencil in the reference configuration, each node displaced as the material it carries in MPM's
+// transfer, u_i = g(Xbar_i) - Xbar_i at the B-spline-weighted centroid Xbar_i of that material (0 where the boundary
+// holds the node), so dF/dxhat_k = sum_i dg/dxhat_k(Xbar_i) (x) grad_X N_i: the total-Lagrangian form of the grid's
+// stress divergence, whose reduced force is still the gradient of an energy (the network run at 27 nodes). The
+// projection (projection.hpp) then solves M(xhat_n+1) xhatdot_n+1 = sum_s w_s m_s J_s(xhat_n+1)^T v_s + dt f,
 // v_s = J_s(xhat_n) xhatdot_n: the momentum carried onto the new tangent space plus the impulse. Parallelism: one
-// thread per (rollout, sample); the network runs r + 1 times at the sample (dF/dxhat_k is the kinematics' Fdot along
-// the unit rate e_k).
+// thread per (rollout, sample).
 #pragma once
 
+#include "mpm/bspline.hpp"
 #include "mpm/constitutive.hpp"
+#include "mpm/grid.hpp"
 #include "rom/kernels/loads.hpp"
 #include "rom/kernels/manifold.hpp"
 #include "rom/kernels/projection.hpp"
@@ -31,6 +38,11 @@ struct GalerkinSampleTerms {
   BatchMatrix<MemorySpace> sample_force;         // out: (rollouts, samples * r): q_s, per unit mass
   Kokkos::View<int*, MemorySpace> flags;
 
+  // GalerkinStrain::Grid: (samples, 27, 6) rows of grid_strain_stencils (src/rom/detail/grid_strain.hpp); empty:
+  // the continuum strain.
+  Kokkos::View<const real_t***, Kokkos::LayoutRight, MemorySpace> stencil_nodes;
+  GridGeometry<real_t> grid;
+
   KOKKOS_INLINE_FUNCTION void operator()(const long e, real_t& max_speed) const {
     const int num_samples = int(X.extent(0)), r = int(xhat.extent(1));
     const int b = int(e / num_samples), s = int(e % num_samples);
@@ -38,21 +50,22 @@ struct GalerkinSampleTerms {
     const real_t Xs[3] = {X(s, 0), X(s, 1), X(s, 2)};
     nn::PointKinematics<real_t> kin;
     manifold.kinematics(Xs, &xhat(b, 0), &xhatdot(b, 0), kin, &sample_J(b, s, 0, 0));
-    Mat3<real_t> F;
-    real_t J;
-    if (!deformation_gradient(kin, flags, b, F, J)) return;
+    Mat3<real_t> F, dF[max_latent_dim];
+    if (stencil_nodes.extent(0) > 0)
+      grid_strain(b, s, Xs, F, dF);
+    else
+      continuum_strain(b, Xs, kin, F, dF);
+    if (!(determinant(F) > real_t(0))) {
+      Kokkos::atomic_or(&flags(b), int(flag_inverted));
+      return;
+    }
     const Mat3<real_t> P = first_piola(material, F);
     Vec3<real_t> body = loads(b).force_per_unit_mass({{Xs[0], Xs[1], Xs[2]}}, time);
     for (int d = 0; d < 3; ++d) body[d] += loads(b).gravity[d];
-    real_t unit[max_latent_dim] = {};
     for (int k = 0; k < r; ++k) {
-      unit[k] = real_t(1);
-      nn::PointKinematics<real_t> along;
-      manifold.kinematics(Xs, &xhat(b, 0), unit, along, nullptr);
-      unit[k] = real_t(0);
       real_t power = 0;  // P : dF/dxhat_k
       for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j) power += P(i, j) * along.Fdot[i][j];
+        for (int j = 0; j < 3; ++j) power += P(i, j) * dF[k](i, j);
       real_t q = -power / density;
       for (int d = 0; d < 3; ++d) q += sample_J(b, s, d, k) * body[d];
       sample_force(b, s * r + k) = q;
@@ -63,6 +76,46 @@ struct GalerkinSampleTerms {
     }
     const real_t speed = norm(Vec3<real_t>{{kin.v[0], kin.v[1], kin.v[2]}});
     if (speed > max_speed) max_speed = speed;
+  }
+
+  // The manifold's own F at the sample and dF/dxhat_k, the kinematics' Fdot along each unit rate.
+  KOKKOS_INLINE_FUNCTION void continuum_strain(int b, const real_t Xs[3], const nn::PointKinematics<real_t>& kin,
+                                               Mat3<real_t>& F, Mat3<real_t>* dF) const {
+    const int r = int(xhat.extent(1));
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) F(i, j) = kin.F[i][j];
+    real_t unit[max_latent_dim] = {};
+    for (int k = 0; k < r; ++k) {
+      unit[k] = real_t(1);
+      nn::PointKinematics<real_t> along;
+      manifold.kinematics(Xs, &xhat(b, 0), unit, along, nullptr);
+      unit[k] = real_t(0);
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) dF[k](i, j) = along.Fdot[i][j];
+    }
+  }
+
+  // MPM's F at the sample from its stencil's node displacements, and its derivative along each latent coordinate.
+  KOKKOS_INLINE_FUNCTION void grid_strain(int b, int s, const real_t Xs[3], Mat3<real_t>& F, Mat3<real_t>* dF) const {
+    const int r = int(xhat.extent(1));
+    F = Mat3<real_t>::identity();
+    for (int k = 0; k < r; ++k) dF[k] = Mat3<real_t>::zero();
+    const auto stencil = quadratic_stencil(Vec3<real_t>{{Xs[0], Xs[1], Xs[2]}}, grid.origin, grid.inv_dx);
+    for (int n = 0; n < 27; ++n) {
+      const Vec3<real_t> grad = stencil.gradient(n / 9, (n / 3) % 3, n % 3);
+      const real_t Xbar[3] = {stencil_nodes(s, n, 0), stencil_nodes(s, n, 1), stencil_nodes(s, n, 2)};
+      nn::PointKinematics<real_t> node;
+      real_t dg[3 * max_latent_dim];
+      manifold.kinematics(Xbar, &xhat(b, 0), &xhatdot(b, 0), node, dg);
+      for (int a = 0; a < 3; ++a) {
+        const real_t free = stencil_nodes(s, n, 3 + a);
+        const real_t u = free * (node.g[a] - Xbar[a]);
+        for (int c = 0; c < 3; ++c) {
+          F(a, c) += u * grad[c];
+          for (int k = 0; k < r; ++k) dF[k](a, c) += free * dg[a * r + k] * grad[c];
+        }
+      }
+    }
   }
 };
 
