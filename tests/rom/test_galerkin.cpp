@@ -62,7 +62,7 @@ double elastic_energy(const std::vector<double>& X, const std::vector<double>& v
   return energy;
 }
 
-// The grid strain of one sample: F = I + sum_n u_n (x) grad N_n(X_s) over its stencil rows (grid_strain_stencils'
+// The grid strain of one sample: F = I + sum_n u_n (x) grad N_n(X_s) over its stencil rows (grid_strain_nodes'
 // layout), each node displaced as the bending map moves its centroid where the row leaves the axis free.
 Mat3<double> grid_strain(const double Xs[3], const double* rows, const GridGeometry<real_t>& grid,
                          const double xhat[3]) {
@@ -127,8 +127,12 @@ class GalerkinForce : public ::testing::Test {
     rom::BatchVectors<MemorySpace> x("x", 1, S, 3), v("v", 1, S, 3);
     rom::BatchJacobians<MemorySpace> J("J", 1, S, 3, r);
     Kokkos::View<int*, MemorySpace> flags("flags", 1);
-    Kokkos::View<real_t***, Kokkos::LayoutRight, MemorySpace> stencils("stencils", rows.empty() ? 0 : S, 27,
-                                                                       impl::grid_strain_node_values);
+    // Every (sample, stencil node) its own node here: the kernels must not care whether samples share nodes.
+    const int num_nodes = rows.empty() ? 0 : S * 27;
+    Kokkos::View<real_t**, Kokkos::LayoutRight, MemorySpace> nodes("nodes", num_nodes, impl::grid_strain_node_values);
+    Kokkos::View<int**, Kokkos::LayoutRight, MemorySpace> stencils("stencils", rows.empty() ? 0 : S, 27);
+    rom::BatchVectors<MemorySpace> node_u("node_u", 1, num_nodes, 3);
+    rom::BatchJacobians<MemorySpace> node_dg("node_dg", 1, num_nodes, 3, r);
     {
       auto hX = Kokkos::create_mirror_view(Xv);
       for (int s = 0; s < S; ++s)
@@ -140,15 +144,21 @@ class GalerkinForce : public ::testing::Test {
       auto hloads = Kokkos::create_mirror_view(loads);
       hloads(0) = load;
       Kokkos::deep_copy(loads, hloads);
+      auto hnodes = Kokkos::create_mirror_view(nodes);
+      for (std::size_t i = 0; i < hnodes.size(); ++i) hnodes.data()[i] = real_t(rows[i]);
+      Kokkos::deep_copy(nodes, hnodes);
       auto hstencils = Kokkos::create_mirror_view(stencils);
-      for (std::size_t i = 0; i < hstencils.size(); ++i) hstencils.data()[i] = real_t(rows[i]);
+      for (std::size_t i = 0; i < hstencils.size(); ++i) hstencils.data()[i] = int(i);
       Kokkos::deep_copy(stencils, hstencils);
     }
+    Kokkos::parallel_for(Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>>(0, num_nodes),
+                         rom::GridStrainNodeKinematics<BendingManifold, MemorySpace>{BendingManifold{}, nodes, xhat,
+                                                                                     xhatdot, node_u, node_dg, flags});
     real_t fastest = 0;
     Kokkos::parallel_reduce(Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>>(0, S),
                             rom::GalerkinSampleTerms<BendingManifold, MemorySpace>{
                                 BendingManifold{}, Xv, xhat, xhatdot, loads, material, real_t(density), real_t(0.5), x,
-                                v, J, force, flags, stencils, grid},
+                                v, J, force, flags, stencils, node_u, node_dg, grid},
                             Kokkos::Max<real_t>(fastest));
     EXPECT_EQ(Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), flags)(0), 0);
     const auto q = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), force);
@@ -217,8 +227,14 @@ TEST(GridStrainStencils, CentroidsHeldNodesAndLinearFieldsOnALattice) {
   loads.dirichlet_window[0] = 0;
   loads.dirichlet_window[1] = real_t(1e30);
   const std::vector<double> samples = {0.025, 0.025, 0.025, 0.225, 0.025, -0.225};
-  const auto rows = impl::grid_strain_stencils(grid, loads, 1.0, X, mass, samples);
-  ASSERT_EQ(rows.size(), 2u * 27 * impl::grid_strain_node_values);
+  const auto found = impl::grid_strain_nodes(grid, loads, 1.0, X, mass, samples);
+  ASSERT_EQ(found.stencils.size(), 2u * 27);
+  // Both stencils' x = 0.1 .. 0.3 nodes on the z = -0.1 layer are shared: 54 - 3 distinct nodes.
+  EXPECT_EQ(found.nodes.size(), 51u * impl::grid_strain_node_values);
+  std::vector<double> rows;  // each sample's 27 rows in stencil order
+  for (const int i : found.stencils)
+    rows.insert(rows.end(), found.nodes.begin() + i * impl::grid_strain_node_values,
+                found.nodes.begin() + (i + 1) * impl::grid_strain_node_values);
   // Centroids are weighted means of coordinates within 0.3 of the node: rounding of a few eps of 1 in real_t.
   const double tolerance = 50 * std::numeric_limits<real_t>::epsilon();
   const auto node = [&](int s, int n) { return &rows[(std::size_t(s) * 27 + std::size_t(n)) * 6]; };

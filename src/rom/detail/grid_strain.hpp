@@ -4,22 +4,39 @@
 
 #include <vector>
 
+#include "manifold/device_data.hpp"
 #include "mpm/grid.hpp"
 #include "rom/kernels/loads.hpp"
 
 namespace mpmrom::impl {
 
-// Values per stencil node in grid_strain_stencils' rows.
+// Values per node in GridStrainNodes::nodes.
 inline constexpr int grid_strain_node_values = 6;
 
-// For each sample (row-major sample_X (S, 3)), the 27 nodes of its stencil in the reference configuration
-// (a, b, c order of QuadraticStencil): the mass-weighted centroid, with the node's B-spline weights, of the
-// reference points (X, mass: row-major (n, 3) and (n)) whose momentum the node receives in MPM's transfer, and per
-// axis 1 where the node moves freely, 0 where the boundary holds it at rest. Row-major (S, 27, 6). Throws
-// std::invalid_argument when a Dirichlet region moves or is not active over [0, end_time], which a strain measured
-// from the rest configuration cannot follow.
-std::vector<double> grid_strain_stencils(const GridGeometry<real_t>& grid, const rom::RolloutLoads& loads,
-                                         double end_time, const std::vector<double>& X, const std::vector<double>& mass,
-                                         const std::vector<double>& sample_X);
+// The distinct nodes of the samples' stencils, each evaluated once a step however many samples share it.
+struct GridStrainNodes {
+  // Per node (row-major (nodes, 6)): the mass-weighted centroid, with the node's B-spline weights, of the reference
+  // points whose momentum the node receives in MPM's transfer, and per axis 1 where the node moves freely, 0 where
+  // the boundary holds it at rest.
+  std::vector<double> nodes;
+  std::vector<int> stencils;  // (samples, 27): each sample's stencil nodes (QuadraticStencil's a, b, c order)
+};
+
+// The nodes of the stencils of the samples at sample_X (row-major (S, 3)) in the reference configuration of the
+// points X, mass (row-major (n, 3) and (n)). Throws std::invalid_argument when a Dirichlet region moves or is not
+// active over [0, end_time], which a strain measured from the rest configuration cannot follow.
+GridStrainNodes grid_strain_nodes(const GridGeometry<real_t>& grid, const rom::RolloutLoads& loads, double end_time,
+                                  const std::vector<double>& X, const std::vector<double>& mass,
+                                  const std::vector<double>& sample_X);
+
+// The grid strain on the device: its nodes and stencils, and room for each step's node displacements and dg/dxhat
+// (GridStrainNodeKinematics) of the given rollouts; all empty when there is no grid strain.
+struct GridStrainViews {
+  DeviceMatrix nodes;
+  Kokkos::View<int**, Kokkos::LayoutRight, DeviceMemory> stencils;
+  DeviceCube u;
+  DeviceQuad dg;
+};
+GridStrainViews upload_grid_strain(const GridStrainNodes& found, int rollouts, int latent_dim);
 
 }  // namespace mpmrom::impl

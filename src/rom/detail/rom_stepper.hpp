@@ -108,10 +108,8 @@ class BatchStepper final : public BatchStepperBase {
     samples_force_weight_ = upload<Vector>("mpmrom::rom::samples_force_weight", force_weight_samples, S);
     if (galerkin_) sample_force_ = Matrix("mpmrom::rom::sample_force", B, std::size_t(S) * r);
     if (galerkin_ && settings.galerkin_strain == GalerkinStrain::Grid)
-      stencil_nodes_ =
-          upload<Cube>("mpmrom::rom::stencil_nodes",
-                       grid_strain_stencils(grid_, host_loads.at(0), times_.back(), model.X, model.mass, X_samples), S,
-                       27, grid_strain_node_values);
+      strain_ = upload_grid_strain(
+          grid_strain_nodes(grid_, host_loads.at(0), times_.back(), model.X, model.mass, X_samples), B, r);
     quadrature_x_ = upload<Matrix>("mpmrom::rom::quadrature_x", h.quadrature_x, h.quadrature_weight.size(), 3);
     quadrature_w_ = upload<Vector>("mpmrom::rom::quadrature_w", h.quadrature_weight, h.quadrature_weight.size());
     nodes_ = upload_indices("mpmrom::rom::nodes", h.nodes);
@@ -376,12 +374,17 @@ class BatchStepper final : public BatchStepperBase {
   void substep(real_t t, real_t dt) {
     const ExecutionSpace space;
     const int B = B_, S = S_, r = latent_dim_;
+    if (galerkin_ && strain_.nodes.extent(0) > 0)
+      Kokkos::parallel_for("mpmrom::rom::grid_strain_nodes", Range(space, 0, long(B) * strain_.nodes.extent(0)),
+                           rom::GridStrainNodeKinematics<Manifold, MemorySpace>{
+                               manifold_, strain_.nodes, xhat_, xhatdot_, strain_.u, strain_.dg, flags_});
     if (galerkin_)
-      Kokkos::parallel_reduce("mpmrom::rom::galerkin_terms", Range(space, 0, long(B) * S),
-                              rom::GalerkinSampleTerms<Manifold, MemorySpace>{
-                                  manifold_, samples_X_, xhat_, xhatdot_, loads_, material_, density_, t, sample_x_,
-                                  sample_v_, sample_J_, sample_force_, flags_, stencil_nodes_, grid_},
-                              Kokkos::Max<real_t, MemorySpace>(fastest_sample_));
+      Kokkos::parallel_reduce(
+          "mpmrom::rom::galerkin_terms", Range(space, 0, long(B) * S),
+          rom::GalerkinSampleTerms<Manifold, MemorySpace>{manifold_, samples_X_, xhat_, xhatdot_, loads_, material_,
+                                                          density_, t, sample_x_, sample_v_, sample_J_, sample_force_,
+                                                          flags_, strain_.stencils, strain_.u, strain_.dg, grid_},
+          Kokkos::Max<real_t, MemorySpace>(fastest_sample_));
     else
       transfer(space, t, dt);
     using Projection = rom::ProjectSamples<ExecutionSpace, MemorySpace>;
@@ -467,7 +470,7 @@ class BatchStepper final : public BatchStepperBase {
   Matrix xhat_, xhatdot_, xhat_next_, xhatdot_next_;
   rom::SourceView<MemorySpace> sources_;
   Cube sample_x_, sample_v_, node_v_, trial_x_, reference_;
-  Cube stencil_nodes_;  // the Galerkin step's grid strain (GalerkinStrain::Grid); empty otherwise
+  GridStrainViews strain_;  // the Galerkin step's grid strain (GalerkinStrain::Grid; empty otherwise)
   Quad sample_J_;
   Kokkos::View<unsigned char**, MemorySpace> converged_;
   Kokkos::View<int*, MemorySpace> failures_, flags_, step_failures_, fallbacks_, regularized_;

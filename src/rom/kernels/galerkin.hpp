@@ -9,10 +9,11 @@
 // of the sample's stencil in the reference configuration, each node displaced as the material it carries in MPM's
 // transfer, u_i = g(Xbar_i) - Xbar_i at the B-spline-weighted centroid Xbar_i of that material (0 where the boundary
 // holds the node), so dF/dxhat_k = sum_i dg/dxhat_k(Xbar_i) (x) grad_X N_i: the total-Lagrangian form of the grid's
-// stress divergence, whose reduced force is still the gradient of an energy (the network run at 27 nodes). The
+// stress divergence, whose reduced force is still the gradient of an energy (the network run once a step at each
+// distinct node of the samples' stencils, GridStrainNodeKinematics). The
 // projection (projection.hpp) then solves M(xhat_n+1) xhatdot_n+1 = sum_s w_s m_s J_s(xhat_n+1)^T v_s + dt f,
 // v_s = J_s(xhat_n) xhatdot_n: the momentum carried onto the new tangent space plus the impulse. Parallelism: one
-// thread per (rollout, sample).
+// thread per (rollout, sample), and for the grid strain's nodes first one thread per (rollout, node).
 #pragma once
 
 #include "mpm/bspline.hpp"
@@ -24,6 +25,32 @@
 #include "rom/kernels/sources.hpp"
 
 namespace mpmrom::rom {
+
+// The grid strain's nodes (GalerkinStrain::Grid): each node's displacement u = g(Xbar) - Xbar and dg/dxhat at its
+// centroid Xbar, zero on the axes the boundary holds.
+template <class Manifold, class MemorySpace>
+struct GridStrainNodeKinematics {
+  Manifold manifold;
+  Kokkos::View<const real_t**, Kokkos::LayoutRight, MemorySpace> nodes;  // (nodes, 6): grid_strain_nodes' rows
+  BatchMatrix<MemorySpace> xhat, xhatdot;
+  BatchVectors<MemorySpace> node_u;     // out: (rollouts, nodes, 3)
+  BatchJacobians<MemorySpace> node_dg;  // out: (rollouts, nodes, 3, r)
+  Kokkos::View<int*, MemorySpace> flags;
+
+  KOKKOS_INLINE_FUNCTION void operator()(const long e) const {
+    const int num_nodes = int(nodes.extent(0)), r = int(xhat.extent(1));
+    const int b = int(e / num_nodes), i = int(e % num_nodes);
+    if (flags(b) & fatal_flags) return;
+    const real_t Xbar[3] = {nodes(i, 0), nodes(i, 1), nodes(i, 2)};
+    nn::PointKinematics<real_t> kin;
+    manifold.kinematics(Xbar, &xhat(b, 0), &xhatdot(b, 0), kin, &node_dg(b, i, 0, 0));
+    for (int a = 0; a < 3; ++a) {
+      const real_t free = nodes(i, 3 + a);
+      node_u(b, i, a) = free * (kin.g[a] - Xbar[a]);
+      for (int k = 0; k < r; ++k) node_dg(b, i, a, k) *= free;
+    }
+  }
+};
 
 template <class Manifold, class MemorySpace>
 struct GalerkinSampleTerms {
@@ -38,9 +65,11 @@ struct GalerkinSampleTerms {
   BatchMatrix<MemorySpace> sample_force;         // out: (rollouts, samples * r): q_s, per unit mass
   Kokkos::View<int*, MemorySpace> flags;
 
-  // GalerkinStrain::Grid: (samples, 27, 6) rows of grid_strain_stencils (src/rom/detail/grid_strain.hpp); empty:
+  // GalerkinStrain::Grid: each sample's 27 stencil nodes (samples, 27) into GridStrainNodeKinematics' outputs; empty:
   // the continuum strain.
-  Kokkos::View<const real_t***, Kokkos::LayoutRight, MemorySpace> stencil_nodes;
+  Kokkos::View<const int**, Kokkos::LayoutRight, MemorySpace> stencils;
+  BatchVectors<MemorySpace> node_u;
+  BatchJacobians<MemorySpace> node_dg;
   GridGeometry<real_t> grid;
 
   KOKKOS_INLINE_FUNCTION void operator()(const long e, real_t& max_speed) const {
@@ -51,7 +80,7 @@ struct GalerkinSampleTerms {
     nn::PointKinematics<real_t> kin;
     manifold.kinematics(Xs, &xhat(b, 0), &xhatdot(b, 0), kin, &sample_J(b, s, 0, 0));
     Mat3<real_t> F, dF[max_latent_dim];
-    if (stencil_nodes.extent(0) > 0)
+    if (stencils.extent(0) > 0)
       grid_strain(b, s, Xs, F, dF);
     else
       continuum_strain(b, Xs, kin, F, dF);
@@ -103,18 +132,12 @@ struct GalerkinSampleTerms {
     const auto stencil = quadratic_stencil(Vec3<real_t>{{Xs[0], Xs[1], Xs[2]}}, grid.origin, grid.inv_dx);
     for (int n = 0; n < 27; ++n) {
       const Vec3<real_t> grad = stencil.gradient(n / 9, (n / 3) % 3, n % 3);
-      const real_t Xbar[3] = {stencil_nodes(s, n, 0), stencil_nodes(s, n, 1), stencil_nodes(s, n, 2)};
-      nn::PointKinematics<real_t> node;
-      real_t dg[3 * max_latent_dim];
-      manifold.kinematics(Xbar, &xhat(b, 0), &xhatdot(b, 0), node, dg);
-      for (int a = 0; a < 3; ++a) {
-        const real_t free = stencil_nodes(s, n, 3 + a);
-        const real_t u = free * (node.g[a] - Xbar[a]);
+      const int i = stencils(s, n);
+      for (int a = 0; a < 3; ++a)
         for (int c = 0; c < 3; ++c) {
-          F(a, c) += u * grad[c];
-          for (int k = 0; k < r; ++k) dF[k](a, c) += free * dg[a * r + k] * grad[c];
+          F(a, c) += node_u(b, i, a) * grad[c];
+          for (int k = 0; k < r; ++k) dF[k](a, c) += node_dg(b, i, a, k) * grad[c];
         }
-      }
     }
   }
 };
