@@ -251,6 +251,9 @@ void add_rollout(CLI::App& app, Commands& commands) {
   add_defaulted(command, "--galerkin-strain", o->galerkin_strain,
                 "With --method galerkin: the deformation gradient its energy is taken at, the manifold's own at each "
                 "sample (continuum) or MPM's, from the displacements of the grid nodes around it (grid)");
+  command->add_flag("--galerkin-transfer", o->rom_settings.galerkin_transfer,
+                    "With --galerkin-strain grid: carry each sample's momentum through its grid nodes as MPM's "
+                    "transfer does, instead of along the manifold's tangent");
   add_defaulted(command, "--rate-damping", o->rom_settings.rate_damping,
                 "Tikhonov weight toward the previous latent rate, relative to the normal matrix's mean eigenvalue");
   command->add_option("--max-condition", o->rom_settings.max_condition,

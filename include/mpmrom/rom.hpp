@@ -82,6 +82,8 @@ struct RomSettings {
   SnapshotSource snapshot_source = SnapshotSource::Reduced;
   CubatureTarget cubature_target = CubatureTarget::Own;        // --method galerkin's weights (--cubature-target)
   GalerkinStrain galerkin_strain = GalerkinStrain::Continuum;  // --method galerkin's energy (--galerkin-strain)
+  // With the grid strain: the momentum carried through the stencil's nodes as MPM's transfer carries it.
+  bool galerkin_transfer = false;
   double max_condition = 0;   // regularise the normal equations above this estimate (0: 0.01 / epsilon)
   double regularization = 0;  // mu = regularization * trace / r (0: 100 epsilon)
   // Safeguards and detectors (docs/stability.md).
@@ -108,6 +110,9 @@ struct HyperReduction {
   // The Galerkin step's weight of each sample's force where it differs from `weights` (CubatureFit::force_weights);
   // empty: `weights`.
   std::vector<double> force_weights;
+  // The cubature fit's relative misfits over its snapshots (the normal matrix, then each projected field; the
+  // Galerkin step's force last) where the weights were fitted here; empty otherwise.
+  std::vector<double> weight_misfits;
   // Algorithm 1: the material points feeding the transfer, samples first (M, then the neighbours N).
   std::vector<int> source_points;
   // Algorithm 2: quadrature points (current configuration) and their volume weights.

@@ -100,6 +100,7 @@ HyperReduction prepare_hyper_reduction(const Model& model, const Scene& scene, c
       selected.samples.empty() ? cubature_weights(model, cubature_snapshots(scene, settings, data), samples) : selected;
   reduction.weights = fit.weights;
   reduction.force_weights = fit.force_weights;
+  reduction.weight_misfits = fit.misfits;
   if (log)
     log("cubature weights: relative misfit" + misfit_list(fit.misfits) +
         " (the normal matrix, then each projected field)");

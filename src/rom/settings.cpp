@@ -117,6 +117,7 @@ nlohmann::json RomSettings::to_json() const {
           {"cubature_snapshots", to_string(snapshot_source)},
           {"cubature_target", to_string(cubature_target)},
           {"galerkin_strain", to_string(galerkin_strain)},
+          {"galerkin_transfer", galerkin_transfer},
           {"max_condition", max_condition},
           {"regularization", regularization},
           {"regularize", regularize},
@@ -144,6 +145,9 @@ void RomSettings::validate() const {
     throw std::invalid_argument("--cubature-target grid takes --cubature-snapshots reduced or states");
   if (galerkin_strain == GalerkinStrain::Grid && method != RomMethod::Galerkin)
     throw std::invalid_argument("--galerkin-strain grid is for --method galerkin");
+  if (galerkin_transfer && galerkin_strain != GalerkinStrain::Grid)
+    throw std::invalid_argument(
+        "--galerkin-transfer needs --galerkin-strain grid (it carries momentum through its nodes)");
   if (newton_iterations < 1) throw std::invalid_argument("--newton-iterations must be >= 1");
   if (max_condition < 0 || regularization < 0)
     throw std::invalid_argument("--max-condition and --regularization must be >= 0");
@@ -161,7 +165,8 @@ nlohmann::json HyperReduction::summary() const {
           {"neighbours", source_points.empty() ? 0 : source_points.size() - samples.size()},
           {"quadrature_points", quadrature_weight.size()},
           {"nodes", nodes.size()},
-          {"node_source_pairs", node_sources.size()}};
+          {"node_source_pairs", node_sources.size()},
+          {"weight_misfits", weight_misfits}};
 }
 
 }  // namespace mpmrom

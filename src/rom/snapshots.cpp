@@ -152,6 +152,7 @@ std::unique_ptr<impl::BatchStepperBase> grid_target_stepper(const Model& model, 
   grid.method = RomMethod::MaterialPoint;
   grid.cubature_target = CubatureTarget::Own;
   grid.galerkin_strain = GalerkinStrain::Continuum;
+  grid.galerkin_transfer = false;
   return snapshot_stepper(model, scene_path, scene, grid, cases, points);
 }
 

@@ -227,7 +227,7 @@ TEST(GridStrainStencils, CentroidsHeldNodesAndLinearFieldsOnALattice) {
   loads.dirichlet_window[0] = 0;
   loads.dirichlet_window[1] = real_t(1e30);
   const std::vector<double> samples = {0.025, 0.025, 0.025, 0.225, 0.025, -0.225};
-  const auto found = impl::grid_strain_nodes(grid, loads, 1.0, X, mass, samples);
+  const auto found = impl::grid_strain_nodes(grid, loads, 1.0, X, mass, samples, false);
   ASSERT_EQ(found.stencils.size(), 2u * 27);
   // Both stencils' x = 0.1 .. 0.3 nodes on the z = -0.1 layer are shared: 54 - 3 distinct nodes.
   EXPECT_EQ(found.nodes.size(), 51u * impl::grid_strain_node_values);

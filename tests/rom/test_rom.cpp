@@ -266,13 +266,20 @@ void check_every_configuration(const Scene& scene, const Motion& motion, Check c
   for (const auto& [method, samples] : kConfigurations)
     for (const ProjectionScheme scheme : kSchemes) {
       if (method == RomMethod::Galerkin && scheme != ProjectionScheme::Velocity) continue;
-      RomSettings settings;
-      settings.projection = scheme;
-      const RomResult result = affine_rollouts(scene, motion, method, samples, 1, settings);
-      const std::string label = to_string(method) + " " + std::to_string(samples) + " " + to_string(scheme);
-      ASSERT_EQ(result.outcomes[0].flags & rom::fatal_flags, 0) << label << ": " << result.outcomes[0].message;
-      const auto [dx, dv] = deviation(result, motion);
-      check(label, dx, dv);
+      // The Galerkin step also with the grid strain and the grid transfer.
+      for (const bool grid : {false, true}) {
+        if (grid && method != RomMethod::Galerkin) continue;
+        RomSettings settings;
+        settings.projection = scheme;
+        settings.galerkin_strain = grid ? GalerkinStrain::Grid : GalerkinStrain::Continuum;
+        settings.galerkin_transfer = grid;
+        const RomResult result = affine_rollouts(scene, motion, method, samples, 1, settings);
+        const std::string label = to_string(method) + " " + std::to_string(samples) + " " + to_string(scheme) +
+                                  (grid ? " grid strain and transfer" : "");
+        ASSERT_EQ(result.outcomes[0].flags & rom::fatal_flags, 0) << label << ": " << result.outcomes[0].message;
+        const auto [dx, dv] = deviation(result, motion);
+        check(label, dx, dv);
+      }
     }
 }
 

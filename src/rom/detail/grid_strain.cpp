@@ -45,10 +45,10 @@ void require_resting_boundary(const rom::RolloutLoads& loads, double end_time) {
   }
 }
 
-// The node's row of GridStrainNodes::nodes: its centroid and free axes.
+// The node's row of GridStrainNodes::nodes: where it takes its velocity from, and its free axes.
 void node_row(const GridGeometry<real_t>& grid, const GridBoundary& boundary,
               const std::unordered_map<long, std::vector<int>>& by_base, const std::vector<double>& X,
-              const std::vector<double>& mass, const int idx[3], double* row) {
+              const std::vector<double>& mass, const int idx[3], bool apic, double* row) {
   double weight = 0, centroid[3] = {0, 0, 0};
   // A point reaches this node from the stencils based at idx - (0..2) on each axis.
   for (int o = 0; o < 27; ++o) {
@@ -68,7 +68,7 @@ void node_row(const GridGeometry<real_t>& grid, const GridBoundary& boundary,
     throw std::logic_error("grid_strain_nodes: a sample's node receives no mass");
   const Vec3<real_t> free = free_axes(grid, boundary, idx);
   for (int d = 0; d < 3; ++d) {
-    row[d] = centroid[d] / weight;
+    row[d] = apic ? double(grid.position(idx[0], idx[1], idx[2])[d]) : centroid[d] / weight;
     row[3 + d] = double(free[d]);
   }
 }
@@ -77,7 +77,7 @@ void node_row(const GridGeometry<real_t>& grid, const GridBoundary& boundary,
 
 GridStrainNodes grid_strain_nodes(const GridGeometry<real_t>& grid, const rom::RolloutLoads& loads, double end_time,
                                   const std::vector<double>& X, const std::vector<double>& mass,
-                                  const std::vector<double>& sample_X) {
+                                  const std::vector<double>& sample_X, bool apic) {
   require_resting_boundary(loads, end_time);
   const auto by_base = points_by_base(grid, X);
   const std::size_t S = sample_X.size() / 3;
@@ -94,7 +94,7 @@ GridStrainNodes grid_strain_nodes(const GridGeometry<real_t>& grid, const rom::R
       const auto [at, added] = slot.try_emplace(grid.index(idx[0], idx[1], idx[2]), int(slot.size()));
       if (added) {
         result.nodes.resize(result.nodes.size() + grid_strain_node_values);
-        node_row(grid, loads.boundary, by_base, X, mass, idx,
+        node_row(grid, loads.boundary, by_base, X, mass, idx, apic,
                  &result.nodes[result.nodes.size() - grid_strain_node_values]);
       }
       result.stencils[s * 27 + std::size_t(n)] = at->second;

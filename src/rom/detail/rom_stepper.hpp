@@ -109,7 +109,7 @@ class BatchStepper final : public BatchStepperBase {
     if (galerkin_) sample_force_ = Matrix("mpmrom::rom::sample_force", B, std::size_t(S) * r);
     if (galerkin_ && settings.galerkin_strain == GalerkinStrain::Grid)
       strain_ = upload_grid_strain(
-          grid_strain_nodes(grid_, host_loads.at(0), times_.back(), model.X, model.mass, X_samples), B, r);
+          grid_strain_nodes(grid_, host_loads.at(0), times_.back(), model.X, model.mass, X_samples, apic_), B, r);
     quadrature_x_ = upload<Matrix>("mpmrom::rom::quadrature_x", h.quadrature_x, h.quadrature_weight.size(), 3);
     quadrature_w_ = upload<Vector>("mpmrom::rom::quadrature_w", h.quadrature_weight, h.quadrature_weight.size());
     nodes_ = upload_indices("mpmrom::rom::nodes", h.nodes);
@@ -379,12 +379,12 @@ class BatchStepper final : public BatchStepperBase {
                            rom::GridStrainNodeKinematics<Manifold, MemorySpace>{
                                manifold_, strain_.nodes, xhat_, xhatdot_, strain_.u, strain_.dg, flags_});
     if (galerkin_)
-      Kokkos::parallel_reduce(
-          "mpmrom::rom::galerkin_terms", Range(space, 0, long(B) * S),
-          rom::GalerkinSampleTerms<Manifold, MemorySpace>{manifold_, samples_X_, xhat_, xhatdot_, loads_, material_,
-                                                          density_, t, sample_x_, sample_v_, sample_J_, sample_force_,
-                                                          flags_, strain_.stencils, strain_.u, strain_.dg, grid_},
-          Kokkos::Max<real_t, MemorySpace>(fastest_sample_));
+      Kokkos::parallel_reduce("mpmrom::rom::galerkin_terms", Range(space, 0, long(B) * S),
+                              rom::GalerkinSampleTerms<Manifold, MemorySpace>{
+                                  manifold_, samples_X_, xhat_, xhatdot_, loads_, material_, density_, t, sample_x_,
+                                  sample_v_, sample_J_, sample_force_, flags_, strain_.stencils, strain_.u, strain_.dg,
+                                  grid_, settings_.galerkin_transfer ? dt : real_t(0)},
+                              Kokkos::Max<real_t, MemorySpace>(fastest_sample_));
     else
       transfer(space, t, dt);
     using Projection = rom::ProjectSamples<ExecutionSpace, MemorySpace>;

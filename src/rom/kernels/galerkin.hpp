@@ -6,14 +6,15 @@
 // with P the first Piola-Kirchhoff stress and w_s the cubature weight (1: every point). F_s is the manifold's own
 // dg/dX at the sample (GalerkinStrain::Continuum; dF/dxhat_k is the kinematics' Fdot along the unit rate e_k, the
 // network run r + 1 times), or MPM's (GalerkinStrain::Grid): F_s = I + sum_i u_i (x) grad_X N_i(X_s) over the 27 nodes
-// of the sample's stencil in the reference configuration, each node displaced as the material it carries in MPM's
-// transfer, u_i = g(Xbar_i) - Xbar_i at the B-spline-weighted centroid Xbar_i of that material (0 where the boundary
-// holds the node), so dF/dxhat_k = sum_i dg/dxhat_k(Xbar_i) (x) grad_X N_i: the total-Lagrangian form of the grid's
-// stress divergence, whose reduced force is still the gradient of an energy (the network run once a step at each
-// distinct node of the samples' stencils, GridStrainNodeKinematics). The
-// projection (projection.hpp) then solves M(xhat_n+1) xhatdot_n+1 = sum_s w_s m_s J_s(xhat_n+1)^T v_s + dt f,
-// v_s = J_s(xhat_n) xhatdot_n: the momentum carried onto the new tangent space plus the impulse. Parallelism: one
-// thread per (rollout, sample), and for the grid strain's nodes first one thread per (rollout, node).
+// of the sample's stencil in the reference configuration, each node moving as the manifold moves the material at
+// Xbar_i (the node itself with APIC, the centroid of the material it carries with PIC; src/rom/detail/grid_strain.hpp),
+// u_i = g(Xbar_i) - Xbar_i, 0 where the boundary holds the node, so dF/dxhat_k = sum_i dg/dxhat_k(Xbar_i) (x)
+// grad_X N_i: the total-Lagrangian form of the grid's stress divergence, whose reduced force is still the gradient of
+// an energy (the network run once a step at each distinct node of the samples' stencils, GridStrainNodeKinematics).
+// The projection (projection.hpp) then solves M(xhat_n+1) xhatdot_n+1 = sum_s w_s m_s J_s(xhat_n+1)^T v_s + dt f,
+// v_s = J_s(xhat_n) xhatdot_n: the momentum carried onto the new tangent space plus the impulse; with the grid
+// transfer v_s is gathered from the stencil's nodes instead (add_transfer). Parallelism: one thread per (rollout,
+// sample), and for the grid strain's nodes first one thread per (rollout, node).
 #pragma once
 
 #include "mpm/bspline.hpp"
@@ -26,8 +27,8 @@
 
 namespace mpmrom::rom {
 
-// The grid strain's nodes (GalerkinStrain::Grid): each node's displacement u = g(Xbar) - Xbar and dg/dxhat at its
-// centroid Xbar, zero on the axes the boundary holds.
+// The grid strain's nodes (GalerkinStrain::Grid): each node's displacement u = g(Xbar) - Xbar and dg/dxhat at the
+// material point Xbar it moves with, zero on the axes the boundary holds.
 template <class Manifold, class MemorySpace>
 struct GridStrainNodeKinematics {
   Manifold manifold;
@@ -71,6 +72,9 @@ struct GalerkinSampleTerms {
   BatchVectors<MemorySpace> node_u;
   BatchJacobians<MemorySpace> node_dg;
   GridGeometry<real_t> grid;
+  // With the grid strain: the sample's velocity gathered from its stencil's nodes as MPM's G2P gathers it, folded
+  // into the force over dt (0: the manifold's velocity at the sample, no transfer).
+  real_t transfer_dt = 0;
 
   KOKKOS_INLINE_FUNCTION void operator()(const long e, real_t& max_speed) const {
     const int num_samples = int(X.extent(0)), r = int(xhat.extent(1));
@@ -80,8 +84,9 @@ struct GalerkinSampleTerms {
     nn::PointKinematics<real_t> kin;
     manifold.kinematics(Xs, &xhat(b, 0), &xhatdot(b, 0), kin, &sample_J(b, s, 0, 0));
     Mat3<real_t> F, dF[max_latent_dim];
+    const auto stencil = quadratic_stencil(Vec3<real_t>{{Xs[0], Xs[1], Xs[2]}}, grid.origin, grid.inv_dx);
     if (stencils.extent(0) > 0)
-      grid_strain(b, s, Xs, F, dF);
+      grid_strain(b, s, stencil, F, dF);
     else
       continuum_strain(b, Xs, kin, F, dF);
     if (!(determinant(F) > real_t(0))) {
@@ -99,6 +104,7 @@ struct GalerkinSampleTerms {
       for (int d = 0; d < 3; ++d) q += sample_J(b, s, d, k) * body[d];
       sample_force(b, s * r + k) = q;
     }
+    if (stencils.extent(0) > 0 && transfer_dt > 0) add_transfer(b, s, stencil, kin);
     for (int d = 0; d < 3; ++d) {
       sample_x(b, s, d) = kin.g[d];
       sample_v(b, s, d) = kin.v[d];
@@ -125,11 +131,11 @@ struct GalerkinSampleTerms {
   }
 
   // MPM's F at the sample from its stencil's node displacements, and its derivative along each latent coordinate.
-  KOKKOS_INLINE_FUNCTION void grid_strain(int b, int s, const real_t Xs[3], Mat3<real_t>& F, Mat3<real_t>* dF) const {
+  KOKKOS_INLINE_FUNCTION void grid_strain(int b, int s, const QuadraticStencil<real_t>& stencil, Mat3<real_t>& F,
+                                          Mat3<real_t>* dF) const {
     const int r = int(xhat.extent(1));
     F = Mat3<real_t>::identity();
     for (int k = 0; k < r; ++k) dF[k] = Mat3<real_t>::zero();
-    const auto stencil = quadratic_stencil(Vec3<real_t>{{Xs[0], Xs[1], Xs[2]}}, grid.origin, grid.inv_dx);
     for (int n = 0; n < 27; ++n) {
       const Vec3<real_t> grad = stencil.gradient(n / 9, (n / 3) % 3, n % 3);
       const int i = stencils(s, n);
@@ -138,6 +144,26 @@ struct GalerkinSampleTerms {
           F(a, c) += node_u(b, i, a) * grad[c];
           for (int k = 0; k < r; ++k) dF[k](a, c) += node_dg(b, i, a, k) * grad[c];
         }
+    }
+  }
+
+  // MPM's transfer of the sample's velocity: G2P from its stencil's nodes, each moving as the manifold moves the
+  // material at it (dg/dxhat(Xbar_i) xhatdot, 0 on held axes), sum_i N_i(X_s) v_i replaces v_s in J_s^T v_s; the
+  // difference over dt joins the force (the smoothing, and the held nodes' drag, of Algorithm 1's transfer).
+  KOKKOS_INLINE_FUNCTION void add_transfer(int b, int s, const QuadraticStencil<real_t>& stencil,
+                                           const nn::PointKinematics<real_t>& kin) const {
+    const int r = int(xhat.extent(1));
+    real_t gathered[3] = {0, 0, 0};
+    for (int n = 0; n < 27; ++n) {
+      const int i = stencils(s, n);
+      const real_t w = stencil.weight(n / 9, (n / 3) % 3, n % 3);
+      for (int a = 0; a < 3; ++a)
+        for (int k = 0; k < r; ++k) gathered[a] += w * node_dg(b, i, a, k) * xhatdot(b, k);
+    }
+    for (int k = 0; k < r; ++k) {
+      real_t change = 0;
+      for (int a = 0; a < 3; ++a) change += sample_J(b, s, a, k) * (gathered[a] - kin.v[a]);
+      sample_force(b, s * r + k) += change / transfer_dt;
     }
   }
 };
