@@ -84,11 +84,14 @@ struct GalerkinSampleTerms {
     nn::PointKinematics<real_t> kin;
     manifold.kinematics(Xs, &xhat(b, 0), &xhatdot(b, 0), kin, &sample_J(b, s, 0, 0));
     Mat3<real_t> F, dF[max_latent_dim];
-    const auto stencil = quadratic_stencil(Vec3<real_t>{{Xs[0], Xs[1], Xs[2]}}, grid.origin, grid.inv_dx);
-    if (stencils.extent(0) > 0)
+    const bool on_grid = stencils.extent(0) > 0;
+    QuadraticStencil<real_t> stencil{};  // the grid strain's only
+    if (on_grid) {
+      stencil = quadratic_stencil(Vec3<real_t>{{Xs[0], Xs[1], Xs[2]}}, grid.origin, grid.inv_dx);
       grid_strain(b, s, stencil, F, dF);
-    else
+    } else {
       continuum_strain(b, Xs, kin, F, dF);
+    }
     if (!(determinant(F) > real_t(0))) {
       Kokkos::atomic_or(&flags(b), int(flag_inverted));
       return;
@@ -104,7 +107,7 @@ struct GalerkinSampleTerms {
       for (int d = 0; d < 3; ++d) q += sample_J(b, s, d, k) * body[d];
       sample_force(b, s * r + k) = q;
     }
-    if (stencils.extent(0) > 0 && transfer_dt > 0) add_transfer(b, s, stencil, kin);
+    if (on_grid && transfer_dt > 0) add_transfer(b, s, stencil, kin);
     for (int d = 0; d < 3; ++d) {
       sample_x(b, s, d) = kin.g[d];
       sample_v(b, s, d) = kin.v[d];
