@@ -1,6 +1,7 @@
 // Empirical cubature of the samples' projection (ECSW, Farhat et al.): non-negative weights with which the samples'
 // sums reproduce the all-point, mass-weighted sums of the projection over snapshots (rom/detail/snapshots.hpp), and
 // the greedy choice of the samples that Lawson and Hanson's active set makes (docs/rom.md "Sample weights").
+#include <algorithm>
 #include <cmath>
 #include <numeric>
 #include <stdexcept>
@@ -15,6 +16,10 @@ namespace {
 
 using impl::PointSnapshot;
 using impl::SnapshotStream;
+
+// A bound on the exchange passes over a count-limited active set: 4-7 reach a fixed point on the poke cylinder's
+// fits of 15-30 samples, at about 0.4 s a pass for 15 samples among 1368 candidates.
+constexpr int kExchangePasses = 20;
 
 // The cubature's least-squares system over the candidate points, E w = f: E's column c holds candidate c's
 // quantities at every snapshot (the upper triangle of J^T J, then J^T of each field, then the Galerkin force) and f
@@ -109,13 +114,72 @@ void normal_equations(const CubatureSystem& system, const std::vector<bool>& blo
   }
 }
 
+// The non-negative fit of the normal equations (G, h) (n unknowns) restricted to `subset`: its weights (one per
+// subset entry) and the drop it brings to the squared misfit, 2 h.w - w.G w.
+double subset_fit(const std::vector<double>& G, const std::vector<double>& h, std::size_t n,
+                  const std::vector<std::size_t>& subset, std::vector<double>& w) {
+  const std::size_t k = subset.size();
+  std::vector<double> Gs(k * k), hs(k);
+  for (std::size_t a = 0; a < k; ++a) {
+    hs[a] = h[subset[a]];
+    for (std::size_t b = 0; b < k; ++b) Gs[a * k + b] = G[subset[a] * n + subset[b]];
+  }
+  w = dense::nnls_normal(Gs, hs, k);
+  double drop = 0;
+  for (std::size_t a = 0; a < k; ++a) {
+    double Gw = 0;
+    for (std::size_t b = 0; b < k; ++b) Gw += Gs[a * k + b] * w[b];
+    drop += 2 * hs[a] * w[a] - w[a] * Gw;
+  }
+  return drop;
+}
+
+// Exchange passes after the active set's greedy choice (which never revisits a point it took): each chosen unknown in
+// turn is swapped for the unchosen one whose subset fit lowers the misfit most, until a pass swaps none (at most
+// max_passes). Returns the subset's weights as a weight per unknown.
+std::vector<double> refine_by_exchange(const std::vector<double>& G, const std::vector<double>& h, std::size_t n,
+                                       std::vector<double> w, int max_passes) {
+  std::vector<std::size_t> chosen;
+  std::vector<bool> taken(n, false);
+  for (std::size_t i = 0; i < n; ++i)
+    if (w[i] > 0) chosen.push_back(i), taken[i] = true;
+  std::vector<double> ws;
+  double best = subset_fit(G, h, n, chosen, ws);
+  for (int pass = 0; pass < max_passes; ++pass) {
+    bool swapped = false;
+    for (std::size_t slot = 0; slot < chosen.size(); ++slot) {
+      std::size_t best_candidate = n;
+      std::vector<std::size_t> trial = chosen;
+      for (std::size_t c = 0; c < n; ++c) {
+        if (taken[c]) continue;
+        trial[slot] = c;
+        const double drop = subset_fit(G, h, n, trial, ws);
+        if (drop > best + 1e-10) best = drop, best_candidate = c;  // the targets have unit norm a block
+      }
+      if (best_candidate == n) continue;
+      taken[chosen[slot]] = false;
+      taken[best_candidate] = true;
+      chosen[slot] = best_candidate;
+      swapped = true;
+    }
+    if (!swapped) break;
+  }
+  subset_fit(G, h, n, chosen, ws);
+  std::fill(w.begin(), w.end(), 0.0);
+  for (std::size_t a = 0; a < chosen.size(); ++a) w[chosen[a]] = ws[a];
+  return w;
+}
+
 // Non-negative weights over `columns` for the rows in `blocks` (at most max_active positive, 0: any), as a weight
-// per system column (0 outside `columns`).
+// per system column (0 outside `columns`). When the limit cuts the active set short, exchange passes refine its
+// choice (a fit that stops below the limit is the unconstrained optimum already).
 std::vector<double> fit_blocks(const CubatureSystem& system, const std::vector<bool>& blocks,
                                const std::vector<std::size_t>& columns, std::size_t max_active) {
   std::vector<double> G, h;
   normal_equations(system, blocks, columns, G, h);
-  const std::vector<double> w = dense::nnls_normal(G, h, columns.size(), max_active);
+  std::vector<double> w = dense::nnls_normal(G, h, columns.size(), max_active);
+  if (max_active > 0 && std::size_t(std::count_if(w.begin(), w.end(), [](double x) { return x > 0; })) >= max_active)
+    w = refine_by_exchange(G, h, columns.size(), w, kExchangePasses);
   std::vector<double> all(system.columns, 0.0);
   for (std::size_t c = 0; c < columns.size(); ++c) all[columns[c]] = w[c];
   return all;
