@@ -245,6 +245,9 @@ void add_rollout(CLI::App& app, Commands& commands) {
                 "the scene's "
                 "training design), states (one all-point sub-step from the model's training states) or full (the "
                 "--data full-order runs)");
+  add_defaulted(command, "--cubature-candidates", o->rom_settings.cubature_candidates,
+                "On a body of more points: the offline fits' candidates, spread evenly over it (set-up memory and "
+                "time grow with their square)");
   add_defaulted(command, "--cubature-target", o->cubature_target,
                 "With --method galerkin: what its cubature weights reproduce, its own all-point reduced force (own) "
                 "or the grid step's, Algorithm 1 with every point (grid)");

@@ -80,6 +80,9 @@ struct RomSettings {
   SampleWeighting weighting = SampleWeighting::Auto;
   // What the cubature and the greedy projection selection fit (--cubature-snapshots, docs/rom.md "Sample weights").
   SnapshotSource snapshot_source = SnapshotSource::Reduced;
+  // The offline fits' candidate points on a larger body (every point on a smaller one): more fit the all-point sums
+  // better, at a set-up cost that grows with their square (the fits' normal equations).
+  int cubature_candidates = 2048;
   CubatureTarget cubature_target = CubatureTarget::Own;        // --method galerkin's weights (--cubature-target)
   GalerkinStrain galerkin_strain = GalerkinStrain::Continuum;  // --method galerkin's energy (--galerkin-strain)
   // With the grid strain: the momentum carried through the stencil's nodes as MPM's transfer carries it.

@@ -115,6 +115,7 @@ nlohmann::json RomSettings::to_json() const {
           {"rate_damping", rate_damping},
           {"weights", to_string(fitted_weights(*this))},
           {"cubature_snapshots", to_string(snapshot_source)},
+          {"cubature_candidates", cubature_candidates},
           {"cubature_target", to_string(cubature_target)},
           {"galerkin_strain", to_string(galerkin_strain)},
           {"galerkin_transfer", galerkin_transfer},
@@ -139,6 +140,8 @@ void RomSettings::validate() const {
   if (!(rate_damping >= 0) || rate_damping > 1e6) throw std::invalid_argument("--rate-damping must be in [0, 1e6]");
   if (method == RomMethod::Galerkin && projection == ProjectionScheme::Position)
     throw std::invalid_argument("--method galerkin takes --projection velocity");
+  if (cubature_candidates < 16 || cubature_candidates > 65536)
+    throw std::invalid_argument("--cubature-candidates must be in [16, 65536]");
   if (cubature_target == CubatureTarget::Grid && method != RomMethod::Galerkin)
     throw std::invalid_argument("--cubature-target grid is for --method galerkin (the grid methods fit the grid step)");
   if (cubature_target == CubatureTarget::Grid && snapshot_source == SnapshotSource::Full)

@@ -291,6 +291,7 @@ std::vector<int> all_candidates(const Model& model, std::size_t max_candidates) 
 
 CubatureSnapshots cubature_snapshots(const Scene& scene, const RomSettings& settings, const TrainingData* data) {
   CubatureSnapshots snapshots;
+  snapshots.max_candidates = std::size_t(settings.cubature_candidates);
   if (settings.snapshot_source != SnapshotSource::Full) {
     snapshots.scene_path = scene.source_path;
     snapshots.settings = settings;
