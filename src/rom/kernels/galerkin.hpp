@@ -43,11 +43,11 @@ struct GridStrainNodeKinematics {
     const int b = int(e / num_nodes), i = int(e % num_nodes);
     if (flags(b) & fatal_flags) return;
     const real_t Xbar[3] = {nodes(i, 0), nodes(i, 1), nodes(i, 2)};
-    nn::PointKinematics<real_t> kin;
-    manifold.kinematics(Xbar, &xhat(b, 0), &xhatdot(b, 0), kin, &node_dg(b, i, 0, 0));
+    real_t g[3];
+    manifold.position_and_tangent(Xbar, &xhat(b, 0), g, &node_dg(b, i, 0, 0));
     for (int a = 0; a < 3; ++a) {
       const real_t free = nodes(i, 3 + a);
-      node_u(b, i, a) = free * (kin.g[a] - Xbar[a]);
+      node_u(b, i, a) = free * (g[a] - Xbar[a]);
       for (int k = 0; k < r; ++k) node_dg(b, i, a, k) *= free;
     }
   }
@@ -82,14 +82,19 @@ struct GalerkinSampleTerms {
     if (flags(b) & fatal_flags) return;
     const real_t Xs[3] = {X(s, 0), X(s, 1), X(s, 2)};
     nn::PointKinematics<real_t> kin;
-    manifold.kinematics(Xs, &xhat(b, 0), &xhatdot(b, 0), kin, &sample_J(b, s, 0, 0));
     Mat3<real_t> F, dF[max_latent_dim];
     const bool on_grid = stencils.extent(0) > 0;
     QuadraticStencil<real_t> stencil{};  // the grid strain's only
-    if (on_grid) {
+    if (on_grid) {                       // the sample's position, J and velocity J xhatdot; its own F is not needed
+      manifold.position_and_tangent(Xs, &xhat(b, 0), kin.g, &sample_J(b, s, 0, 0));
+      for (int d = 0; d < 3; ++d) {
+        kin.v[d] = 0;
+        for (int k = 0; k < r; ++k) kin.v[d] += sample_J(b, s, d, k) * xhatdot(b, k);
+      }
       stencil = quadratic_stencil(Vec3<real_t>{{Xs[0], Xs[1], Xs[2]}}, grid.origin, grid.inv_dx);
       grid_strain(b, s, stencil, F, dF);
     } else {
+      manifold.kinematics(Xs, &xhat(b, 0), &xhatdot(b, 0), kin, &sample_J(b, s, 0, 0));
       continuum_strain(b, Xs, kin, F, dF);
     }
     if (!(determinant(F) > real_t(0))) {

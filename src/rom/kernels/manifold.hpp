@@ -4,6 +4,8 @@
 //                                   nn::PointKinematics<real_t>& out, real_t* dgdxhat /* 3 x r or null */) const;
 //   KOKKOS_FUNCTION void position_and_gradient(const real_t X[3], const real_t* xhat, real_t g[3],
 //                                              real_t F[3][3]) const;
+//   KOKKOS_FUNCTION void position_and_tangent(const real_t X[3], const real_t* xhat, real_t g[3],
+//                                             real_t* dgdxhat /* 3 x r */) const;  // TeamFromSerial has one
 // and the team interface of the batch kernels (team_shape.hpp):
 //   int team_lanes() const;                       // vector lanes one point wants
 //   TeamScratch team_scratch() const;             // scratch values: shared by the team, per thread
@@ -26,6 +28,14 @@ inline constexpr int max_latent_dim = 16;  // the r x r normal equations live in
 // The team interface of a manifold that has only the one-thread one: one lane of each team thread evaluates its point.
 template <class Manifold>
 struct TeamFromSerial {
+  // g and dg/dxhat alone, from the kinematics at rest; a manifold with a cheaper way defines its own.
+  KOKKOS_INLINE_FUNCTION void position_and_tangent(const real_t X[3], const real_t* xhat, real_t g[3],
+                                                   real_t* dgdxhat) const {
+    const real_t rest[max_latent_dim] = {};
+    nn::PointKinematics<real_t> kin;
+    static_cast<const Manifold&>(*this).kinematics(X, xhat, rest, kin, dgdxhat);
+    for (int d = 0; d < 3; ++d) g[d] = kin.g[d];
+  }
   int team_lanes() const { return 1; }
   TeamScratch team_scratch() const { return TeamScratch{}; }
   template <class Member>
@@ -61,6 +71,13 @@ struct MlpManifold {
                                                     real_t F[3][3]) const {
     real_t unused[3 * max_latent_dim];
     nn::SerialMlpForwardJacobian<MaxWidth>(mlp, X, xhat, g, F, unused);
+  }
+
+  // One forward pass and three reverse sweeps (4 matrix-vector products a layer), against kinematics' 11.
+  KOKKOS_INLINE_FUNCTION void position_and_tangent(const real_t X[3], const real_t* xhat, real_t g[3],
+                                                   real_t* dgdxhat) const {
+    real_t unused[3][3];
+    nn::SerialMlpForwardJacobian<MaxWidth>(mlp, X, xhat, g, unused, dgdxhat);
   }
 
   int team_lanes() const { return nn::lanes_for_width(mlp.layout.widest); }
