@@ -35,8 +35,8 @@ using SnapshotStream = std::function<void(const std::function<void(const PointSn
 // The snapshots `snapshots` describes: the full-order runs, the all-point reduced motion or its training states.
 SnapshotStream snapshot_stream(const Model& model, const CubatureSnapshots& snapshots);
 
-// Every point, or at most max_candidates spread evenly over a larger body (in increasing order): the candidates of
-// the offline selections.
+// Every point, or at most max_candidates spread evenly in space over a larger body, one a cell of a uniform grid (in
+// increasing order): the candidates of the offline selections.
 std::vector<int> all_candidates(const Model& model, std::size_t max_candidates);
 
 }  // namespace mpmrom::impl
