@@ -20,6 +20,10 @@ using impl::SnapshotStream;
 // A bound on the exchange passes over a count-limited active set: 4-7 reach a fixed point on the poke cylinder's
 // fits of 15-30 samples, at about 0.4 s a pass for 15 samples among 1368 candidates.
 constexpr int kExchangePasses = 20;
+// A pass solves k x C subset fits of k unknowns, each up to k Cholesky factorisations of k^3 / 3: about k^5 C / 3
+// operations (an upper bound: 30 samples among 1368 measured 3 s a pass). Above this budget (about 37 samples among
+// 2048 candidates, 40 among 1368) the active set's choice is kept as it is.
+constexpr double kExchangePassBudget = 5e10;
 
 // The cubature's least-squares system over the candidate points, E w = f: E's column c holds candidate c's
 // quantities at every snapshot (the upper triangle of J^T J, then J^T of each field, then the Galerkin force) and f
@@ -172,13 +176,15 @@ std::vector<double> refine_by_exchange(const std::vector<double>& G, const std::
 
 // Non-negative weights over `columns` for the rows in `blocks` (at most max_active positive, 0: any), as a weight
 // per system column (0 outside `columns`). When the limit cuts the active set short, exchange passes refine its
-// choice (a fit that stops below the limit is the unconstrained optimum already).
+// choice within their budget (a fit that stops below the limit is the unconstrained optimum already).
 std::vector<double> fit_blocks(const CubatureSystem& system, const std::vector<bool>& blocks,
                                const std::vector<std::size_t>& columns, std::size_t max_active) {
   std::vector<double> G, h;
   normal_equations(system, blocks, columns, G, h);
   std::vector<double> w = dense::nnls_normal(G, h, columns.size(), max_active);
-  if (max_active > 0 && std::size_t(std::count_if(w.begin(), w.end(), [](double x) { return x > 0; })) >= max_active)
+  const double k = double(max_active), pass_cost = k * k * k * k * k * double(columns.size()) / 3;
+  if (max_active > 0 && pass_cost <= kExchangePassBudget &&
+      std::size_t(std::count_if(w.begin(), w.end(), [](double x) { return x > 0; })) >= max_active)
     w = refine_by_exchange(G, h, columns.size(), w, kExchangePasses);
   std::vector<double> all(system.columns, 0.0);
   for (std::size_t c = 0; c < columns.size(); ++c) all[columns[c]] = w[c];
