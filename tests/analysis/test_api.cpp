@@ -147,16 +147,9 @@ TEST_F(RolloutBatchApi, StoredSampleRankingIsTheGreedySelection) {
   }
 }
 
-// Cubature (ECSW), from the full-order runs and from the reduced motion: the active set's samples carry positive
-// weights, at most as many as asked for; a larger count's fit has no larger total misfit; the exchange passes leave
-// the count-limited choice a local optimum (no sample swapped for another point lowers the refitted misfit); refitting
-// weights to the chosen samples (cubature_weights) reproduces the selection's weights, the same restricted
-// least-squares problem. With every point as a sample the masses are an exact solution, so the misfit is only the
-// normal equations' rounding and ridge. The Galerkin step's reduced motion fits its own three blocks: the mass matrix,
-// the momentum J^T v and the reduced force. No chosen sample of `fit` swapped for a point outside it lowers the total
-// misfit of weights refitted to the new set. The exchange swaps for a drop of the squared misfit above 1e-10 (the
-// targets have unit norm a block); the refit agrees with the exchange's own solve to rounding, far below the 1e-8
-// allowed here.
+// No chosen sample of `fit` swapped for a point outside it lowers the total misfit of weights refitted to the new
+// set. The exchange swaps for a drop of the squared misfit above 1e-10 (the targets have unit norm a block); the
+// refit agrees with the exchange's own solve to rounding, far below the 1e-8 allowed here.
 template <class Total>
 void expect_no_better_swap(const Model& model, const CubatureSnapshots& snapshots, const CubatureFit& fit,
                            const Total& total, const std::string& source) {
@@ -171,6 +164,13 @@ void expect_no_better_swap(const Model& model, const CubatureSnapshots& snapshot
     }
 }
 
+// Cubature (ECSW), from the full-order runs and from the reduced motion: the active set's samples carry positive
+// weights, at most as many as asked for; a larger count's fit has no larger total misfit; the exchange passes leave
+// the count-limited choice a local optimum (no sample swapped for another point lowers the refitted misfit); refitting
+// weights to the chosen samples (cubature_weights) reproduces the selection's weights, the same restricted
+// least-squares problem. With every point as a sample the masses are an exact solution, so the misfit is only the
+// normal equations' rounding and ridge. The Galerkin step's reduced motion fits its own three blocks: the mass matrix,
+// the momentum J^T v and the reduced force.
 TEST_F(RolloutBatchApi, CubatureSelectionAndWeightsFitTheAllPointSums) {
   const Model model = load_model(model_path());
   const auto data = load_training_data({(dir_ / "sweep").string()});
