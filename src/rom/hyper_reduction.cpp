@@ -11,7 +11,7 @@
 
 #include "fom/fom.hpp"
 #include "rom/detail/decoder.hpp"
-#include "rom/detail/rom_stepper.hpp"
+#include "rom/detail/rollout_driver.hpp"
 
 namespace mpmrom {
 namespace {

@@ -2,7 +2,8 @@
 
 #include <stdexcept>
 
-#include "rom/detail/rom_stepper.hpp"
+#include "rom/detail/rollout_driver.hpp"
+#include "rom/kernels/projection.hpp"
 
 namespace mpmrom {
 namespace {

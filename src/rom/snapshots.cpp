@@ -14,9 +14,10 @@
 #include <vector>
 
 #include "rom/detail/decoder.hpp"
-#include "rom/detail/rom_stepper.hpp"
+#include "rom/detail/rollout_driver.hpp"
 #include "rom/detail/snapshots.hpp"
 #include "rom/detail/training_frames.hpp"
+#include "rom/kernels/projection.hpp"
 
 namespace mpmrom {
 namespace {

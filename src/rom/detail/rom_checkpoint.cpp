@@ -8,7 +8,7 @@
 #include "io/atomic_file.hpp"
 #include "io/hdf5_file.hpp"
 #include "io/file_checks.hpp"
-#include "rom/detail/rom_stepper.hpp"
+#include "rom/detail/rollout_driver.hpp"
 
 namespace mpmrom::impl {
 namespace {

@@ -6,7 +6,7 @@
 #include <string>
 
 #include "core/checked_integer.hpp"
-#include "rom/detail/rom_stepper.hpp"
+#include "rom/detail/rollout_driver.hpp"
 
 namespace mpmrom {
 
