@@ -24,9 +24,10 @@ namespace {
 struct Options {
   std::string model_path, scene_path;
   RomSettings rom_settings;
-  std::string rom_method = "point", rom_selection = "greedy-projection", rom_projection = "velocity",
-              rom_weights = "auto", cubature_snapshots = "reduced", cubature_target = "own",
-              galerkin_strain = "continuum", params_path, rom_path, decode_mode = "none";
+  // "auto": the method's default (rom_defaults).
+  std::string rom_method = "point", rom_selection = "auto", rom_projection = "velocity", rom_weights = "auto",
+              cubature_snapshots = "auto", cubature_target = "auto", galerkin_strain = "auto", params_path, rom_path,
+              decode_mode = "none";
   std::vector<std::string> rom_data;
   double decode_spacing = 0;
   bool rollout_json = false;
@@ -129,12 +130,19 @@ int run(Options o, const Context& context) {
   const auto& world = context.world;
   mpmrom::require_writable_output(o.rom_path);
   o.rom_settings.method = mpmrom::rom_method_from_string(o.rom_method);
-  o.rom_settings.selection = mpmrom::sample_selection_from_string(o.rom_selection);
+  const mpmrom::RomSettings defaults = mpmrom::rom_defaults(o.rom_settings.method);
+  const auto pick = [](const std::string& name, auto method_default, auto parse) {
+    return name == "auto" ? method_default : parse(name);
+  };
+  o.rom_settings.selection = pick(o.rom_selection, defaults.selection, mpmrom::sample_selection_from_string);
   o.rom_settings.projection = mpmrom::projection_scheme_from_string(o.rom_projection);
   o.rom_settings.weighting = mpmrom::sample_weighting_from_string(o.rom_weights);
-  o.rom_settings.snapshot_source = mpmrom::snapshot_source_from_string(o.cubature_snapshots);
-  o.rom_settings.cubature_target = mpmrom::cubature_target_from_string(o.cubature_target);
-  o.rom_settings.galerkin_strain = mpmrom::galerkin_strain_from_string(o.galerkin_strain);
+  o.rom_settings.snapshot_source =
+      pick(o.cubature_snapshots, defaults.snapshot_source, mpmrom::snapshot_source_from_string);
+  o.rom_settings.cubature_target =
+      pick(o.cubature_target, defaults.cubature_target, mpmrom::cubature_target_from_string);
+  o.rom_settings.galerkin_strain =
+      pick(o.galerkin_strain, defaults.galerkin_strain, mpmrom::galerkin_strain_from_string);
   o.rom_settings.validate();
   const mpmrom::Model model = mpmrom::load_model(o.model_path);
   const mpmrom::Scene scene = mpmrom::load_scene(o.scene_path);
@@ -216,7 +224,8 @@ void add_rollout(CLI::App& app, Commands& commands) {
   add_defaulted(command, "--selection", o->rom_selection,
                 "Sample selection: greedy-projection (the samples whose projection of the grid step best matches every "
                 "point's; the model's stored set, or fitted to the reduced model's motion), greedy (from the model's "
-                "stored ranking, or refitted to --data), cubature (ECSW's active set), region or random");
+                "stored ranking, or refitted to --data), cubature (ECSW's active set), region or random; auto: "
+                "greedy-projection, cubature with --method galerkin");
   command->add_option("--data", o->rom_data,
                       "Full-order training runs (sweep directory) to refit --selection greedy to");
   add_defaulted(command, "--seed", o->rom_settings.seed, "Seed of --selection random");
@@ -244,16 +253,16 @@ void add_rollout(CLI::App& app, Commands& commands) {
                 "What the cubature and greedy-projection fit: reduced (the all-point reduced model's projections over "
                 "the scene's "
                 "training design), states (one all-point sub-step from the model's training states) or full (the "
-                "--data full-order runs)");
+                "--data full-order runs); auto: reduced, states with --method galerkin");
   add_defaulted(command, "--cubature-candidates", o->rom_settings.cubature_candidates,
                 "On a body of more points: the offline fits' candidates, spread evenly over it (set-up memory and "
                 "time grow with their square)");
   add_defaulted(command, "--cubature-target", o->cubature_target,
                 "With --method galerkin: what its cubature weights reproduce, its own all-point reduced force (own) "
-                "or the grid step's, Algorithm 1 with every point (grid)");
+                "or the grid step's, Algorithm 1 with every point (grid); auto: grid with --method galerkin");
   add_defaulted(command, "--galerkin-strain", o->galerkin_strain,
                 "With --method galerkin: the deformation gradient its energy is taken at, the manifold's own at each "
-                "sample (continuum) or MPM's, from the displacements of the grid nodes around it (grid)");
+                "sample (continuum) or MPM's, from the displacements of the grid nodes around it (grid); auto: grid");
   command->add_flag("--galerkin-transfer", o->rom_settings.galerkin_transfer,
                     "With --galerkin-strain grid: carry each sample's momentum through its grid nodes as MPM's "
                     "transfer does, instead of along the manifold's tangent");

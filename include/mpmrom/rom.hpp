@@ -101,6 +101,11 @@ struct RomSettings {
   void validate() const;  // throws std::invalid_argument naming the bad setting
 };
 
+// The defaults of `method` (docs/rom.md "Defaults"): RomSettings{} for Algorithms 1 and 2; for the Galerkin step its
+// best measured configuration, MPM's strain with the cubature selection fitted to the grid step's force over the
+// training states (the greedy projection fits the grid step of the other two).
+RomSettings rom_defaults(RomMethod method);
+
 // The weighting settings.weighting stands for: Auto resolved (Cubature for the greedy projection and cubature
 // selections of some samples, Mass otherwise), the others as they are.
 SampleWeighting fitted_weights(const RomSettings& settings);

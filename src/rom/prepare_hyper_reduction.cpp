@@ -56,8 +56,8 @@ CubatureFit joint_selection(const Model& model, const Scene& scene, const RomSet
   const bool fit = fitted_weights(settings) == SampleWeighting::Cubature;
   if (settings.selection == SampleSelection::GreedyProjection && settings.method == RomMethod::Galerkin)
     throw std::invalid_argument(
-        "--method galerkin needs another --selection (greedy, cubature, region or random): greedy-projection, the "
-        "default, fits the grid step of --method point and node");
+        "--method galerkin needs another --selection (cubature, its default, greedy, region or random): "
+        "greedy-projection fits the grid step of --method point and node");
   if (stored_set_applies(model, scene, settings)) {
     for (std::size_t k = 0; k < model.projection_samples.size(); ++k) {
       const auto p = std::size_t(model.projection_samples[k]);

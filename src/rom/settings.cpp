@@ -93,6 +93,18 @@ std::string to_string(SampleWeighting weighting) {
   return weighting == SampleWeighting::Mass ? "mass" : weighting == SampleWeighting::Cubature ? "cubature" : "auto";
 }
 
+RomSettings rom_defaults(RomMethod method) {
+  RomSettings settings;
+  settings.method = method;
+  if (method == RomMethod::Galerkin) {
+    settings.selection = SampleSelection::Cubature;
+    settings.snapshot_source = SnapshotSource::States;
+    settings.cubature_target = CubatureTarget::Grid;
+    settings.galerkin_strain = GalerkinStrain::Grid;
+  }
+  return settings;
+}
+
 SampleWeighting fitted_weights(const RomSettings& settings) {
   if (settings.weighting != SampleWeighting::Auto) return settings.weighting;
   const bool fits =

@@ -192,7 +192,7 @@ TEST_F(Resume, KilledRolloutResumesToTheUninterruptedResult) {
     params << "push\n";
     for (int b = 0; b < 16; ++b) params << 0.5 + 0.0625 * b << "\n";
   }
-  for (const std::string method : {"point", "node"}) {
+  for (const std::string method : {"point", "node", "galerkin"}) {  // each with its default flags
     const std::vector<std::string> rollout{"rollout",
                                            model,
                                            scene_,
