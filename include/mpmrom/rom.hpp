@@ -121,6 +121,8 @@ struct HyperReduction {
   // The cubature fit's relative misfits over its snapshots (the normal matrix, then each projected field; the
   // Galerkin step's force last) where the weights were fitted here; empty otherwise.
   std::vector<double> weight_misfits;
+  // The same over a training run held out of the fit (CubatureFit::held_out_misfits); empty: none.
+  std::vector<double> weight_misfits_held_out;
   // Algorithm 1: the material points feeding the transfer, samples first (M, then the neighbours N).
   std::vector<int> source_points;
   // Algorithm 2: quadrature points (current configuration) and their volume weights.
@@ -167,6 +169,8 @@ struct CubatureFit {
   std::vector<int> samples;
   std::vector<double> weights;
   std::vector<double> misfits;  // relative, per block: the normal matrix, then each field
+  // The same over one training run's snapshots of weights fitted without them (empty: the snapshots hold one run).
+  std::vector<double> held_out_misfits;
   // The Galerkin step's force weights where they are fitted apart from the mass and momentum weights above
   // (CubatureTarget::Grid: the grid step's force is not the samples' own); empty: the same weights.
   std::vector<double> force_weights;

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <numeric>
 #include <stdexcept>
+#include <utility>
 #include <vector>
 
 #include "core/math/nnls.hpp"
@@ -33,6 +34,8 @@ struct CubatureSystem {
   int r = 0;
   std::size_t rows = 0, columns = 0, per_snapshot = 0;
   std::vector<double> E, f;
+  std::vector<int> run_of_snapshot;  // PointSnapshot::run of each snapshot, in row order
+  int run_of(std::size_t row) const { return run_of_snapshot[row / per_snapshot]; }
   int block_of(std::size_t row) const {
     const std::size_t k = row % per_snapshot, matrix = std::size_t(r * (r + 1) / 2);
     return k < matrix ? 0 : 1 + int((k - matrix) / std::size_t(r));
@@ -71,6 +74,7 @@ CubatureSystem cubature_system(const Model& model, const SnapshotStream& snapsho
   snapshots([&](const PointSnapshot& snapshot) {
     const std::size_t Q = std::size_t(r * (r + 1) / 2) + snapshot.blocks() * std::size_t(r);
     system.per_snapshot = Q;
+    system.run_of_snapshot.push_back(snapshot.run);
     q.resize(Q);
     const std::size_t first = system.f.size();
     system.f.resize(first + Q, 0.0);
@@ -100,22 +104,31 @@ CubatureSystem cubature_system(const Model& model, const SnapshotStream& snapsho
   return system;
 }
 
-// The normal equations G w = h of the system's rows in `blocks` (a mask by block) over the columns `columns`.
-void normal_equations(const CubatureSystem& system, const std::vector<bool>& blocks,
-                      const std::vector<std::size_t>& columns, std::vector<double>& G, std::vector<double>& h) {
+// The normal equations G w = h of the system's rows in `blocks` (a mask by block) over the columns `columns`; with
+// held_run >= 0, of that training run's rows alone.
+struct NormalEquations {
+  std::vector<double> G, h;
+  NormalEquations& operator-=(const NormalEquations& other) {
+    for (std::size_t i = 0; i < G.size(); ++i) G[i] -= other.G[i];
+    for (std::size_t i = 0; i < h.size(); ++i) h[i] -= other.h[i];
+    return *this;
+  }
+};
+NormalEquations normal_equations(const CubatureSystem& system, const std::vector<bool>& blocks,
+                                 const std::vector<std::size_t>& columns, int held_run = -1) {
   const std::size_t C = columns.size();
-  G.assign(C * C, 0.0);
-  h.assign(C, 0.0);
+  NormalEquations ne{std::vector<double>(C * C, 0.0), std::vector<double>(C, 0.0)};
   for (std::size_t row = 0; row < system.rows; ++row) {
-    if (!blocks[std::size_t(system.block_of(row))]) continue;
+    if (!blocks[std::size_t(system.block_of(row))] || (held_run >= 0 && system.run_of(row) != held_run)) continue;
     const double* e = &system.E[row * system.columns];
     for (std::size_t a = 0; a < C; ++a) {
       const double ea = e[columns[a]];
       if (ea == 0) continue;
-      h[a] += ea * system.f[row];
-      for (std::size_t b = 0; b < C; ++b) G[a * C + b] += ea * e[columns[b]];
+      ne.h[a] += ea * system.f[row];
+      for (std::size_t b = 0; b < C; ++b) ne.G[a * C + b] += ea * e[columns[b]];
     }
   }
+  return ne;
 }
 
 // The non-negative fit of the normal equations (G, h) (n unknowns) restricted to `subset`: its weights (one per
@@ -174,61 +187,98 @@ std::vector<double> refine_by_exchange(const std::vector<double>& G, const std::
   return w;
 }
 
-// Non-negative weights over `columns` for the rows in `blocks` (at most max_active positive, 0: any), as a weight
-// per system column (0 outside `columns`). When the limit cuts the active set short, exchange passes refine its
-// choice within their budget (a fit that stops below the limit is the unconstrained optimum already).
-std::vector<double> fit_blocks(const CubatureSystem& system, const std::vector<bool>& blocks,
+// Non-negative weights of the normal equations over `columns` (at most max_active positive, 0: any), as a weight per
+// system column (0 outside `columns`). When the limit cuts the active set short, exchange passes refine its choice
+// within their budget (a fit that stops below the limit is the unconstrained optimum already).
+std::vector<double> fit_normal(const CubatureSystem& system, const NormalEquations& ne,
                                const std::vector<std::size_t>& columns, std::size_t max_active) {
-  std::vector<double> G, h;
-  normal_equations(system, blocks, columns, G, h);
-  std::vector<double> w = dense::nnls_normal(G, h, columns.size(), max_active);
+  std::vector<double> w = dense::nnls_normal(ne.G, ne.h, columns.size(), max_active);
   const double k = double(max_active), pass_cost = k * k * k * k * k * double(columns.size()) / 3;
   if (max_active > 0 && pass_cost <= kExchangePassBudget &&
       std::size_t(std::count_if(w.begin(), w.end(), [](double x) { return x > 0; })) >= max_active)
-    w = refine_by_exchange(G, h, columns.size(), w, kExchangePasses);
+    w = refine_by_exchange(ne.G, ne.h, columns.size(), w, kExchangePasses);
   std::vector<double> all(system.columns, 0.0);
   for (std::size_t c = 0; c < columns.size(); ++c) all[columns[c]] = w[c];
   return all;
 }
 
-// The non-negative fit over the system's candidates (at most max_active positive, 0: any), with its relative
-// misfits per block; keeps the candidates with a positive weight when positive_only, else every candidate in order.
-// split: the last block (the Galerkin step's force) gets weights of its own, the active set chosen on it, and the
-// mass matrix and momentum are then fitted on the same samples.
-CubatureFit solve(const CubatureSystem& system, const std::vector<int>& candidates, std::size_t max_active,
-                  bool positive_only, bool split) {
+// The training run held out to validate the fit: the last one, when the snapshots come from several (-1: one run).
+int held_out_run(const CubatureSystem& system) {
+  const auto [low, high] = std::minmax_element(system.run_of_snapshot.begin(), system.run_of_snapshot.end());
+  return *low == *high ? -1 : *high;
+}
+
+// The weights (mass and momentum blocks) and force weights (the last block's own when split) of a fit, and the same
+// fitted without the held-out run's rows.
+struct BlockWeights {
+  std::vector<double> w, force;
+};
+
+// The fit of solve(), and with held_run >= 0 the same fit without that run's rows (its normal equations taken
+// from the whole system's, minus the run's own: a held-out check at an eighth of the cost or so).
+std::pair<BlockWeights, BlockWeights> fit_weights(const CubatureSystem& system, std::size_t max_active,
+                                                  bool positive_only, bool split, int held_run) {
   const std::size_t blocks = std::size_t(system.blocks());
   std::vector<std::size_t> every(system.columns);
   std::iota(every.begin(), every.end(), 0);
-  std::vector<double> w, force;
-  if (!split) {
-    w = fit_blocks(system, std::vector<bool>(blocks, true), every, max_active);
-    force = w;
-  } else {
-    std::vector<bool> last(blocks, false), others(blocks, true);
-    last.back() = true;
-    others.back() = false;
-    force = fit_blocks(system, last, every, max_active);
+  std::vector<bool> all(blocks, true), last(blocks, false), others(blocks, true);
+  last.back() = true;
+  others.back() = false;
+  const std::vector<bool>& first_blocks = split ? last : all;
+  const NormalEquations first = normal_equations(system, first_blocks, every);
+  // The mass and momentum blocks over the force fit's samples (split: weights of their own, few columns).
+  const auto complete = [&](std::vector<double> force, int without) {
+    if (!split) return BlockWeights{force, force};
     std::vector<std::size_t> taken;
     for (std::size_t c = 0; c < system.columns; ++c)
       if (force[c] > 0 || !positive_only) taken.push_back(c);
-    w = fit_blocks(system, others, taken, 0);
+    NormalEquations rest = normal_equations(system, others, taken);
+    if (without >= 0) rest -= normal_equations(system, others, taken, without);
+    return BlockWeights{fit_normal(system, rest, taken, 0), std::move(force)};
+  };
+  BlockWeights fitted = complete(fit_normal(system, first, every, max_active), -1), validation;
+  if (held_run >= 0) {
+    NormalEquations without = first;
+    without -= normal_equations(system, first_blocks, every, held_run);
+    validation = complete(fit_normal(system, without, every, max_active), held_run);
   }
-  CubatureFit fit;
-  fit.misfits.assign(blocks, 0.0);
+  return {std::move(fitted), std::move(validation)};
+}
+
+// Relative misfits per block of the weights over the rows of run `only` (-1: every row).
+std::vector<double> block_misfits(const CubatureSystem& system, const BlockWeights& weights, bool split, int only) {
+  const std::size_t blocks = std::size_t(system.blocks());
+  std::vector<double> error(blocks, 0.0), norm(blocks, 0.0);
   for (std::size_t row = 0; row < system.rows; ++row) {
+    if (only >= 0 && system.run_of(row) != only) continue;
     const std::size_t block = std::size_t(system.block_of(row));
-    const std::vector<double>& weights = split && block + 1 == blocks ? force : w;
+    const std::vector<double>& w = split && block + 1 == blocks ? weights.force : weights.w;
     double e = -system.f[row];
-    for (std::size_t c = 0; c < system.columns; ++c) e += system.E[row * system.columns + c] * weights[c];
-    fit.misfits[block] += e * e;
+    for (std::size_t c = 0; c < system.columns; ++c) e += system.E[row * system.columns + c] * w[c];
+    error[block] += e * e;
+    norm[block] += system.f[row] * system.f[row];
   }
-  for (double& m : fit.misfits) m = std::sqrt(m);
+  for (std::size_t b = 0; b < blocks; ++b) error[b] = norm[b] > 0 ? std::sqrt(error[b] / norm[b]) : 0.0;
+  return error;
+}
+
+// The non-negative fit over the system's candidates (at most max_active positive, 0: any), with its relative
+// misfits per block; keeps the candidates with a positive weight when positive_only, else every candidate in order.
+// split: the last block (the Galerkin step's force) gets weights of its own, the active set chosen on it, and the
+// mass matrix and momentum are then fitted on the same samples. With snapshots from several training runs, the
+// same fit without the last run gives the held-out misfits over that run.
+CubatureFit solve(const CubatureSystem& system, const std::vector<int>& candidates, std::size_t max_active,
+                  bool positive_only, bool split) {
+  const int held_run = held_out_run(system);
+  const auto [fitted, validation] = fit_weights(system, max_active, positive_only, split, held_run);
+  CubatureFit fit;
+  fit.misfits = block_misfits(system, fitted, split, -1);
+  if (held_run >= 0) fit.held_out_misfits = block_misfits(system, validation, split, held_run);
   for (std::size_t c = 0; c < candidates.size(); ++c)
-    if (!positive_only || force[c] > 0) {
+    if (!positive_only || fitted.force[c] > 0) {
       fit.samples.push_back(candidates[c]);
-      fit.weights.push_back(w[c]);
-      if (split) fit.force_weights.push_back(force[c]);
+      fit.weights.push_back(fitted.w[c]);
+      if (split) fit.force_weights.push_back(fitted.force[c]);
     }
   return fit;
 }

@@ -101,9 +101,13 @@ HyperReduction prepare_hyper_reduction(const Model& model, const Scene& scene, c
   reduction.weights = fit.weights;
   reduction.force_weights = fit.force_weights;
   reduction.weight_misfits = fit.misfits;
+  reduction.weight_misfits_held_out = fit.held_out_misfits;
   if (log)
     log("cubature weights: relative misfit" + misfit_list(fit.misfits) +
-        " (the normal matrix, then each projected field)");
+        " (the normal matrix, then each projected field)" +
+        (fit.held_out_misfits.empty()
+             ? ""
+             : "; over a training run held out of the same fit" + misfit_list(fit.held_out_misfits)));
   return reduction;
 }
 

@@ -181,7 +181,8 @@ nlohmann::json HyperReduction::summary() const {
           {"quadrature_points", quadrature_weight.size()},
           {"nodes", nodes.size()},
           {"node_source_pairs", node_sources.size()},
-          {"weight_misfits", weight_misfits}};
+          {"weight_misfits", weight_misfits},
+          {"weight_misfits_held_out", weight_misfits_held_out}};
 }
 
 }  // namespace mpmrom

@@ -36,7 +36,9 @@ SnapshotStream training_runs(const Model& model, const TrainingData& data, std::
       const std::vector<double> J = impl::decoder_jacobians(model, model.X, code);  // one snapshot at a time
       const Snapshot& run = data.train.runs[frame.run];
       const std::vector<double> a = impl::frame_accelerations(run, frame.frame);
-      use({J.data(), {&run.v[frame.frame * P * 3], a.data()}});
+      PointSnapshot snapshot{J.data(), {&run.v[frame.frame * P * 3], a.data()}};
+      snapshot.run = int(frame.run);
+      use(snapshot);
     }
   };
 }
@@ -93,11 +95,13 @@ void use_last_substep(const impl::BatchStepperBase& stepper, const std::vector<i
     if (stepper.flags(b) & rom::fatal_flags) continue;
     const double* J = &inputs.J[std::size_t(b) * S * 3 * std::size_t(r)];
     if (galerkin) {
-      use({J,
-           {&inputs.velocity[std::size_t(b) * S * 3]},
-           &inputs.force[std::size_t(b) * S * std::size_t(r)],
-           points,
-           mass_scale});
+      PointSnapshot snapshot{J,
+                             {&inputs.velocity[std::size_t(b) * S * 3]},
+                             &inputs.force[std::size_t(b) * S * std::size_t(r)],
+                             points,
+                             mass_scale};
+      snapshot.run = b;
+      use(snapshot);
       continue;
     }
     const double* rate = &inputs.rate_before[std::size_t(b) * std::size_t(r)];
@@ -106,7 +110,9 @@ void use_last_substep(const impl::BatchStepperBase& stepper, const std::vector<i
       for (int q = 0; q < r; ++q) v += J[i * std::size_t(r) + std::size_t(q)] * rate[q];
       increment[i] = inputs.velocity[std::size_t(b) * S * 3 + i] - v;
     }
-    use({J, {increment.data()}, nullptr, points, mass_scale});
+    PointSnapshot snapshot{J, {increment.data()}, nullptr, points, mass_scale};
+    snapshot.run = b;
+    use(snapshot);
   }
 }
 
@@ -143,6 +149,7 @@ void use_grid_target(impl::BatchStepperBase& galerkin, impl::BatchStepperBase& g
                            points,
                            mass_scale};
     snapshot.reduced_target = target.data();
+    snapshot.run = b;
     use(snapshot);
   }
 }

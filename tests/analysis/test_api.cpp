@@ -268,6 +268,44 @@ TEST_F(RolloutBatchApi, GalerkinWeightsFitTheGridStepsForce) {
   EXPECT_THROW(sixteen.validate(), std::invalid_argument);
 }
 
+// The held-out check of the cubature fits: on a design whose two training runs are the same run, the run held out
+// is the one the fit kept, whose normal equations are half the whole system's (the whole minus the held run's), so
+// the fit without it has the same minimiser and its misfit over the held-out run equals the fit's own; a design of
+// one training run has nothing to hold out; of two different runs, the held-out one is not fitted. Tolerance 1e-6: the weights differ by the rounding of G - G_held and of
+// the active-set solves, relative 1e-12 or so, amplified by conditioning far below 1e6 on this small system.
+TEST_F(RolloutBatchApi, CubatureHeldOutRunOfATwiceTakenRunMatchesTheFit) {
+  const Model model = load_model(model_path());
+  const std::string twice = (dir_ / "twice.toml").string(), once = (dir_ / "once.toml").string();
+  std::ofstream(twice) << pushed_block_scene("pushed_block", 0.04, 4, 0.4, {1.0, 1.0, 1.5}, 2);
+  std::ofstream(once) << pushed_block_scene("pushed_block", 0.04, 4, 0.4, {1.0, 1.5}, 1);
+  CubatureSnapshots point;
+  point.scene_path = twice;
+  point.count = 2;
+  CubatureSnapshots galerkin = point;
+  galerkin.settings = rom_defaults(RomMethod::Galerkin);
+  galerkin.settings.snapshot_source = SnapshotSource::Reduced;  // the states would be the model's codes of run 1
+  for (const CubatureSnapshots& snapshots : {point, galerkin}) {
+    const std::string method = to_string(snapshots.settings.method);
+    for (const CubatureFit& fit : {cubature_selection(model, snapshots, 5), cubature_selection(model, snapshots, 0)}) {
+      ASSERT_EQ(fit.held_out_misfits.size(), fit.misfits.size()) << method;
+      for (std::size_t b = 0; b < fit.misfits.size(); ++b)
+        EXPECT_NEAR(fit.held_out_misfits[b], fit.misfits[b], 1e-6 * (1 + fit.misfits[b])) << method << " block " << b;
+    }
+    CubatureSnapshots single = snapshots;
+    single.scene_path = once;
+    EXPECT_TRUE(cubature_selection(model, single, 5).held_out_misfits.empty()) << method;
+  }
+  // Two different runs: with every point a candidate the unlimited fit reproduces both runs' mass matrices (the
+  // masses do, misfit below 1e-6 as above), while the fit that never saw the second run leaves a misfit on it.
+  const std::string two = (dir_ / "two.toml").string();
+  std::ofstream(two) << pushed_block_scene("pushed_block", 0.04, 4, 0.4, {1.0, 1.5, 1.25}, 2);
+  point.scene_path = two;
+  const CubatureFit unlimited = cubature_selection(model, point, 0);
+  ASSERT_EQ(unlimited.held_out_misfits.size(), unlimited.misfits.size());
+  EXPECT_LT(unlimited.misfits[0], 1e-6);
+  EXPECT_GT(unlimited.held_out_misfits[0], 10 * unlimited.misfits[0] + 1e-9);
+}
+
 // Greedy selection on the projection, over the reduced motion and over the training states (one sub-step from each):
 // as many samples as asked for, distinct, weighted by their masses; with every point as a candidate taken, the
 // samples' projection is the all-point one, so the error is only the selection's ridge (1e-8 of the trace, relative

@@ -24,6 +24,7 @@ struct PointSnapshot {
   // The all-point sums' reduced force per unit mass where it is another step's than the samples' (the grid step's,
   // CubatureTarget::Grid; null: reduced).
   const double* reduced_target = nullptr;
+  int run = 0;  // the training run (of the stream's) it was taken from: the fits hold one run out to validate
   std::size_t blocks() const { return fields.size() + (reduced != nullptr ? 1 : 0); }
   std::size_t rows(std::size_t num_points) const { return points ? points->size() : num_points; }
   std::size_t point(std::size_t row) const { return points ? std::size_t((*points)[row]) : row; }
