@@ -219,7 +219,8 @@ TEST_F(RolloutBatchApi, CubatureSelectionAndWeightsFitTheAllPointSums) {
 // applies, and the mass matrix and momentum theirs. Over every point the masses solve the mass and momentum blocks
 // exactly (misfit: the normal equations' ridge, as in the test above); the force block's misfit stays below 1 (a
 // sign error leaves it at 1: no non-negative weights fit an opposite force). The selection's samples are the force
-// fit's active set. The grid step's own snapshots and the full-order runs are refused.
+// fit's active set, fitted at the scene's time step for a rollout at a longer one. The grid step's own snapshots and
+// the full-order runs are refused.
 TEST_F(RolloutBatchApi, GalerkinWeightsFitTheGridStepsForce) {
   const Model model = load_model(model_path());
   CubatureSnapshots reduced;
@@ -252,6 +253,16 @@ TEST_F(RolloutBatchApi, GalerkinWeightsFitTheGridStepsForce) {
   RomSettings from_runs = reduced.settings;
   from_runs.snapshot_source = SnapshotSource::Full;
   EXPECT_THROW(from_runs.validate(), std::invalid_argument);
+  // A rollout at a longer time step than the scene's takes the weights fitted at the scene's (the grid step's force)
+  const Scene scene = load_scene(scene_path());
+  RomSettings longer = states.settings;
+  longer.cfl = 4 * scene.cfl;
+  const CubatureFit at_scene = cubature_selection(model, cubature_snapshots(scene, states.settings, nullptr), 6);
+  const CubatureSnapshots fitted_longer = cubature_snapshots(scene, longer, nullptr);
+  EXPECT_EQ(fitted_longer.settings.cfl, 0.0);  // the scene's
+  const CubatureFit at_longer = cubature_selection(model, fitted_longer, 6);
+  EXPECT_EQ(at_longer.samples, at_scene.samples);
+  EXPECT_EQ(at_longer.force_weights, at_scene.force_weights);
   // --cubature-candidates: fewer candidates than points restrict the selection to them
   RomSettings sixteen = states.settings;
   sixteen.cubature_candidates = 16;
@@ -271,8 +282,9 @@ TEST_F(RolloutBatchApi, GalerkinWeightsFitTheGridStepsForce) {
 // The held-out check of the cubature fits: on a design whose two training runs are the same run, the run held out
 // is the one the fit kept, whose normal equations are half the whole system's (the whole minus the held run's), so
 // the fit without it has the same minimiser and its misfit over the held-out run equals the fit's own; a design of
-// one training run has nothing to hold out; of two different runs, the held-out one is not fitted. Tolerance 1e-6: the weights differ by the rounding of G - G_held and of
-// the active-set solves, relative 1e-12 or so, amplified by conditioning far below 1e6 on this small system.
+// one training run has nothing to hold out; of two different runs, the held-out one is not fitted. Tolerance 1e-6: the
+// weights differ by the rounding of G - G_held and of the active-set solves, relative 1e-12 or so, amplified by
+// conditioning far below 1e6 on this small system.
 TEST_F(RolloutBatchApi, CubatureHeldOutRunOfATwiceTakenRunMatchesTheFit) {
   const Model model = load_model(model_path());
   const std::string twice = (dir_ / "twice.toml").string(), once = (dir_ / "once.toml").string();
