@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "core/math/cholesky.hpp"
+#include "core/math/splitmix64.hpp"
 #include "mpmrom/rom.hpp"
 #include "rom/detail/decoder.hpp"
 #include "rom/detail/training_frames.hpp"
@@ -45,14 +46,6 @@ std::vector<int> farthest_points(const std::vector<double>& X, const std::vector
     chosen.push_back(group[best]);
   }
   return chosen;
-}
-
-// splitmix64: a seeded stream that is the same on every platform (std::shuffle's is not).
-std::uint64_t next_random(std::uint64_t& state) {
-  std::uint64_t z = (state += 0x9e3779b97f4a7c15ULL);
-  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-  return z ^ (z >> 31);
 }
 
 std::vector<int> region_samples(const Model& model, const Scene& scene, std::size_t count) {
@@ -218,7 +211,7 @@ std::vector<int> select_samples(const Model& model, const Scene& scene, const Ro
       std::vector<int> order(P);
       std::iota(order.begin(), order.end(), 0);
       std::uint64_t state = settings.seed;
-      for (std::size_t i = P - 1; i > 0; --i) std::swap(order[i], order[next_random(state) % (i + 1)]);
+      for (std::size_t i = P - 1; i > 0; --i) std::swap(order[i], order[splitmix64_next(state) % (i + 1)]);
       order.resize(count);
       return order;
     }

@@ -7,6 +7,7 @@
 #include <random>
 #include <stdexcept>
 
+#include "core/math/splitmix64.hpp"
 #include "manifold/detail/pca.hpp"
 
 namespace mpmrom::impl {
@@ -45,10 +46,7 @@ void append_affine_targets(const Snapshot& run, std::vector<double>& CF) {
 }  // namespace
 
 std::uint64_t epoch_seed(std::uint64_t seed, std::uint64_t epoch) {
-  std::uint64_t z = seed * 0x9E3779B97F4A7C15ull + epoch + 0x632BE59BD9B4E019ull;
-  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-  return z ^ (z >> 31);
+  return splitmix64_mix(seed * 0x9E3779B97F4A7C15ull + epoch + 0x632BE59BD9B4E019ull);
 }
 
 Model start_model(const TrainingData& data, const TrainingSettings& settings, TrainingTargets& targets) {
