@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "core/benchmark_record.hpp"
+#include "core/timing.hpp"
 #include "io/atomic_file.hpp"
 #include "mpmrom/model.hpp"
 #include "rom/rom_file.hpp"
@@ -150,10 +151,12 @@ int run(Options o, const Context& context) {
   const auto cases = rollout_cases(scene, o.params_path, names);
   mpmrom::TrainingData data;
   if (!o.rom_data.empty()) data = mpmrom::load_training_data(o.rom_data);
+  const auto offline_start = mpmrom::SteadyClock::now();
   const auto reduction = mpmrom::prepare_hyper_reduction(
       model, scene, o.rom_settings, o.rom_data.empty() ? nullptr : &data, [quiet](const std::string& line) {
         if (!quiet) std::cerr << "mpmrom rollout: " << line << "\n";
       });
+  const double offline_seconds = mpmrom::seconds_since(offline_start);
   if (!quiet)
     std::cerr << "mpmrom rollout: " << cases.size() << " rollout(s)"
               << (world.size() > 1 ? " over " + std::to_string(world.size()) + " processes" : std::string())
@@ -184,6 +187,8 @@ int run(Options o, const Context& context) {
   file.samples = reduction.samples;
   file.sets = reduction;
   file.timing = rollout_timing(result, cases.size());
+  // the samples' selection and weights (the offline fits), apart from the stepper's set-up
+  file.timing["hyper_reduction_seconds"] = offline_seconds;
   if (o.decode_mode != "none") decode_rollouts(o, model, scene, file);
   mpmrom::save_rom(o.rom_path, file);
   world.barrier();
