@@ -13,6 +13,7 @@
 #include <utility>
 #include <vector>
 
+#include "core/math/splitmix64.hpp"
 #include "rom/detail/decoder.hpp"
 #include "rom/detail/rollout_driver.hpp"
 #include "rom/detail/snapshots.hpp"
@@ -292,8 +293,7 @@ SnapshotStream snapshot_stream(const Model& model, const CubatureSnapshots& snap
 
 // Spread in space, not in index: a stride through the points' lattice order aliases with it (on the 10^5 cylinder,
 // 80 points a column, a stride of 50 kept 8 of the 80 heights and none of the loaded top 5 cm). The cell size is
-// bisected to the smallest whose occupied cells number at most max_candidates; each cell gives the point nearest its
-// centre.
+// bisected to the smallest whose occupied cells number at most max_candidates; each cell gives one of its points.
 std::vector<int> all_candidates(const Model& model, std::size_t max_candidates) {
   const std::size_t P = model.num_points();
   std::vector<int> candidates;
@@ -311,22 +311,22 @@ std::vector<int> all_candidates(const Model& model, std::size_t max_candidates) 
     }
     extent = std::max(extent, hi - lo[d]);
   }
-  // The point nearest the centre of each occupied cell of size h, keyed by the cell (at most 2^20 cells an axis).
+  // One point of each occupied cell of size h, keyed by the cell (at most 2^20 cells an axis): the one of smallest
+  // hash, a fixed draw uniform over the cell's points, so that the candidates take every position the points have
+  // relative to the grid and the surface (the point nearest the centre never took the outer layer).
   const auto cells = [&](double h) {
-    std::unordered_map<std::uint64_t, std::pair<int, double>> nearest;
+    std::unordered_map<std::uint64_t, std::pair<int, std::uint64_t>> drawn;
     for (std::size_t p = 0; p < P; ++p) {
       std::uint64_t key = 0;
-      double distance = 0;
       for (int d = 0; d < 3; ++d) {
         const double u = (model.X[3 * p + std::size_t(d)] - lo[d]) / h;
-        const double cell = std::min(std::floor(u), double((1 << 20) - 1));
-        key = (key << 21) | std::uint64_t(cell);
-        distance += (u - cell - 0.5) * (u - cell - 0.5);
+        key = (key << 21) | std::uint64_t(std::min(std::floor(u), double((1 << 20) - 1)));
       }
-      const auto [it, fresh] = nearest.emplace(key, std::make_pair(int(p), distance));
-      if (!fresh && distance < it->second.second) it->second = {int(p), distance};
+      const std::uint64_t draw = splitmix64_mix(p);
+      const auto [it, fresh] = drawn.emplace(key, std::make_pair(int(p), draw));
+      if (!fresh && draw < it->second.second) it->second = {int(p), draw};
     }
-    return nearest;
+    return drawn;
   };
   double fine = extent / double(1 << 20), coarse = 2 * extent;  // too many cells at `fine`, one at `coarse`
   for (int iteration = 0; iteration < 30 && coarse > 1.01 * fine; ++iteration) {
