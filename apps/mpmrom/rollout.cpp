@@ -125,11 +125,9 @@ std::function<void(const mpmrom::RomProgress&)> rollout_progress(bool quiet, std
   };
 }
 
-// o is a copy: the run completes its settings.
-int run(Options o, const Context& context) {
-  const bool quiet = context.quiet;
-  const auto& world = context.world;
-  mpmrom::require_writable_output(o.rom_path);
+// The rollout's settings from the flags' names, "auto" as the method's default (rom_defaults); throws
+// std::invalid_argument on a bad name or combination.
+void resolve_settings(Options& o) {
   o.rom_settings.method = mpmrom::rom_method_from_string(o.rom_method);
   const mpmrom::RomSettings defaults = mpmrom::rom_defaults(o.rom_settings.method);
   const auto pick = [](const std::string& name, auto method_default, auto parse) {
@@ -145,6 +143,14 @@ int run(Options o, const Context& context) {
   o.rom_settings.galerkin_strain =
       pick(o.galerkin_strain, defaults.galerkin_strain, mpmrom::galerkin_strain_from_string);
   o.rom_settings.validate();
+}
+
+// o is a copy: the run completes its settings.
+int run(Options o, const Context& context) {
+  const bool quiet = context.quiet;
+  const auto& world = context.world;
+  mpmrom::require_writable_output(o.rom_path);
+  resolve_settings(o);
   const mpmrom::Model model = mpmrom::load_model(o.model_path);
   const mpmrom::Scene scene = mpmrom::load_scene(o.scene_path);
   std::vector<std::string> names;
