@@ -214,8 +214,9 @@ struct BlockWeights {
   std::vector<double> w, force;
 };
 
-// The fit of solve(), and with held_run >= 0 the same fit without that run's rows (its normal equations taken
-// from the whole system's, minus the run's own: a held-out check at an eighth of the cost or so).
+// The fit of solve(), and with held_run >= 0 the same fit without that run's rows: its normal equations are the
+// whole system's minus the run's own (one pass over that run's rows, not all), then the active set and exchange
+// passes run a second time.
 std::pair<BlockWeights, BlockWeights> fit_weights(const CubatureSystem& system, std::size_t max_active,
                                                   bool positive_only, bool split, int held_run) {
   const std::size_t blocks = std::size_t(system.blocks());
