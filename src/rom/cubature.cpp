@@ -81,7 +81,7 @@ CubatureSystem cubature_system(const Model& model, const SnapshotStream& snapsho
     system.E.resize((first + Q) * C, 0.0);
     for (std::size_t row = 0; row < snapshot.rows(P); ++row) {
       point_quantities(snapshot, row, r, true, q.data());
-      const double m = snapshot.mass_scale * model.mass[snapshot.point(row)];
+      const double m = snapshot.row_mass(row, model.mass);
       for (std::size_t k = 0; k < Q; ++k) system.f[first + k] += m * q[k];
     }
     const std::vector<std::size_t> rows = snapshot.rows_of(candidates);
@@ -298,7 +298,7 @@ CubatureFit cubature_weights(const Model& model, const CubatureSnapshots& snapsh
 }
 
 CubatureFit cubature_selection(const Model& model, const CubatureSnapshots& snapshots, std::size_t count) {
-  const std::vector<int> candidates = impl::all_candidates(model, snapshots.max_candidates);
+  const std::vector<int> candidates = impl::all_candidates(model, snapshots.max_candidates).points;
   return solve(cubature_system(model, impl::snapshot_stream(model, snapshots), candidates), candidates, count, true,
                split_force(snapshots));
 }

@@ -50,7 +50,7 @@ IncrementSnapshots increment_snapshots(const Model& model, const SnapshotStream&
     for (std::size_t p = 0; p < snapshot.rows(P); ++p)  // p: the row
       for (int d = 0; d < 3; ++d) {
         const double* row = snapshot.J + (p * 3 + std::size_t(d)) * std::size_t(r);
-        const double m = snapshot.mass_scale * model.mass[snapshot.point(p)];
+        const double m = snapshot.row_mass(p, model.mass);
         const double f = snapshot.fields[0][p * 3 + std::size_t(d)];
         for (int i = 0; i < r; ++i) {
           b[std::size_t(i)] += m * row[i] * f;
@@ -272,7 +272,7 @@ struct ProjectionSelector::Increments {
 
 ProjectionSelector::ProjectionSelector(const Model& model, const CubatureSnapshots& snapshots) {
   auto increments = std::make_shared<Increments>();
-  increments->candidates = impl::all_candidates(model, snapshots.max_candidates);
+  increments->candidates = impl::all_candidates(model, snapshots.max_candidates).points;
   increments->set = increment_snapshots(model, impl::snapshot_stream(model, snapshots), increments->candidates);
   for (const int c : increments->candidates) increments->masses.push_back(model.mass[std::size_t(c)]);
   increments->energy = increment_energy(increments->set);

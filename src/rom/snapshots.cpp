@@ -85,10 +85,12 @@ std::vector<int> every_point(const Model& model) {
 
 // Hands each running rollout's last sub-step to use: J of its final pass with the velocity that sub-step added to
 // the manifold's (the part the projection has to get right), or the Galerkin step's momentum and reduced force, at
-// the stepper's samples: every point, or `points` (the candidates) standing for mass_scale times their masses.
-void use_last_substep(const impl::BatchStepperBase& stepper, const std::vector<int>* points, double mass_scale,
-                      std::size_t P, bool galerkin, const std::function<void(const PointSnapshot&)>& use) {
+// the stepper's samples: every point, or the candidates standing for their cells.
+void use_last_substep(const impl::BatchStepperBase& stepper, const impl::Candidates* candidates, std::size_t P,
+                      bool galerkin, const std::function<void(const PointSnapshot&)>& use) {
   const int r = stepper.latent_dim();
+  const std::vector<int>* points = candidates ? &candidates->points : nullptr;
+  const std::vector<double>* masses = candidates ? &candidates->masses : nullptr;
   const std::size_t S = points ? points->size() : P;
   const auto inputs = stepper.last_projection_inputs();
   std::vector<double> increment(S * 3);
@@ -100,7 +102,7 @@ void use_last_substep(const impl::BatchStepperBase& stepper, const std::vector<i
                              {&inputs.velocity[std::size_t(b) * S * 3]},
                              &inputs.force[std::size_t(b) * S * std::size_t(r)],
                              points,
-                             mass_scale};
+                             masses};
       snapshot.run = b;
       use(snapshot);
       continue;
@@ -111,7 +113,7 @@ void use_last_substep(const impl::BatchStepperBase& stepper, const std::vector<i
       for (int q = 0; q < r; ++q) v += J[i * std::size_t(r) + std::size_t(q)] * rate[q];
       increment[i] = inputs.velocity[std::size_t(b) * S * 3 + i] - v;
     }
-    PointSnapshot snapshot{J, {increment.data()}, nullptr, points, mass_scale};
+    PointSnapshot snapshot{J, {increment.data()}, nullptr, points, masses};
     snapshot.run = b;
     use(snapshot);
   }
@@ -122,8 +124,9 @@ void use_last_substep(const impl::BatchStepperBase& stepper, const std::vector<i
 // its trial state, the momentum J^T v_n and the candidates' forces q, the grid stepper (Algorithm 1 at the same
 // points) the force its sub-step applied, J_trial^T (v_G2P - v_n) / dt, which the samples' q must reproduce.
 void use_grid_target(impl::BatchStepperBase& galerkin, impl::BatchStepperBase& grid, const impl::BatchState& state,
-                     const std::vector<int>* points, double mass_scale, std::size_t P,
+                     const impl::Candidates* candidates, std::size_t P,
                      const std::function<void(const PointSnapshot&)>& use) {
+  const std::vector<int>* points = candidates ? &candidates->points : nullptr;
   galerkin.restore(state);
   const double dt = galerkin.probe_substep();
   grid.restore(state);
@@ -148,7 +151,7 @@ void use_grid_target(impl::BatchStepperBase& galerkin, impl::BatchStepperBase& g
                            {&own.velocity[first * 3]},
                            &own.force[first * std::size_t(r)],
                            points,
-                           mass_scale};
+                           candidates ? &candidates->masses : nullptr};
     snapshot.reduced_target = target.data();
     snapshot.run = b;
     use(snapshot);
@@ -180,14 +183,14 @@ SnapshotStream reduced_motion(const Model& model, const std::string& scene_path,
     auto grid = grid_target_stepper(model, scene_path, scene, settings, cases, every_point(model));
     if (!grid) {
       while (stepper->advance_frame())
-        use_last_substep(*stepper, nullptr, 1, model.num_points(), settings.method == RomMethod::Galerkin, use);
+        use_last_substep(*stepper, nullptr, model.num_points(), settings.method == RomMethod::Galerkin, use);
       return;
     }
     // The grid step's all-point motion, both steps probed from each of its output frames.
     while (grid->advance_frame()) {
       const impl::BatchState state = grid->state();
       if (state.frame + 1 >= grid->frames()) break;
-      use_grid_target(*stepper, *grid, state, nullptr, 1, model.num_points(), use);
+      use_grid_target(*stepper, *grid, state, nullptr, model.num_points(), use);
       grid->restore(state);
     }
   };
@@ -218,17 +221,10 @@ SnapshotStream training_states(const Model& model, const std::string& scene_path
     const Scene scene = load_scene(scene_path);
     std::vector<int> indices;
     // A body larger than the candidates is sampled at them alone (J at 2048 points instead of every one).
-    const std::vector<int> candidates = impl::all_candidates(model, max_candidates);
-    const bool sampled = candidates.size() < model.num_points();
-    double mass_scale = 1;
-    if (sampled) {
-      double all = 0, picked = 0;
-      for (const double m : model.mass) all += m;
-      for (const int c : candidates) picked += model.mass[std::size_t(c)];
-      mass_scale = all / picked;
-    }
+    const impl::Candidates candidates = impl::all_candidates(model, max_candidates);
+    const bool sampled = candidates.points.size() < model.num_points();
     const auto cases = training_cases(scene, max_rollouts, indices);
-    const std::vector<int> rows = sampled ? candidates : every_point(model);
+    const std::vector<int> rows = sampled ? candidates.points : every_point(model);
     auto stepper = snapshot_stepper(model, scene_path, scene, settings, cases, rows);
     auto grid = grid_target_stepper(model, scene_path, scene, settings, cases, rows);
     const std::size_t r = std::size_t(model.latent_dim);
@@ -253,12 +249,12 @@ SnapshotStream training_states(const Model& model, const std::string& scene_path
         }
       }
       if (grid) {
-        use_grid_target(*stepper, *grid, state, sampled ? &candidates : nullptr, mass_scale, model.num_points(), use);
+        use_grid_target(*stepper, *grid, state, sampled ? &candidates : nullptr, model.num_points(), use);
         continue;
       }
       stepper->restore(state);
       stepper->probe_substep();
-      use_last_substep(*stepper, sampled ? &candidates : nullptr, mass_scale, model.num_points(),
+      use_last_substep(*stepper, sampled ? &candidates : nullptr, model.num_points(),
                        settings.method == RomMethod::Galerkin, use);
     }
   };
@@ -293,13 +289,15 @@ SnapshotStream snapshot_stream(const Model& model, const CubatureSnapshots& snap
 
 // Spread in space, not in index: a stride through the points' lattice order aliases with it (on the 10^5 cylinder,
 // 80 points a column, a stride of 50 kept 8 of the 80 heights and none of the loaded top 5 cm). The cell size is
-// bisected to the smallest whose occupied cells number at most max_candidates; each cell gives one of its points.
-std::vector<int> all_candidates(const Model& model, std::size_t max_candidates) {
+// bisected to the smallest whose occupied cells number at most max_candidates; each cell gives one of its points,
+// which stands for the cell's mass.
+Candidates all_candidates(const Model& model, std::size_t max_candidates) {
   const std::size_t P = model.num_points();
-  std::vector<int> candidates;
+  Candidates candidates;
   if (P <= max_candidates) {
-    candidates.resize(P);
-    std::iota(candidates.begin(), candidates.end(), 0);
+    candidates.points.resize(P);
+    std::iota(candidates.points.begin(), candidates.points.end(), 0);
+    candidates.masses = model.mass;
     return candidates;
   }
   double lo[3], extent = 0;
@@ -314,8 +312,13 @@ std::vector<int> all_candidates(const Model& model, std::size_t max_candidates) 
   // One point of each occupied cell of size h, keyed by the cell (at most 2^20 cells an axis): the one of smallest
   // hash, a fixed draw uniform over the cell's points, so that the candidates take every position the points have
   // relative to the grid and the surface (the point nearest the centre never took the outer layer).
+  struct Cell {
+    int point;
+    std::uint64_t draw;
+    double mass;
+  };
   const auto cells = [&](double h) {
-    std::unordered_map<std::uint64_t, std::pair<int, std::uint64_t>> drawn;
+    std::unordered_map<std::uint64_t, Cell> drawn;
     for (std::size_t p = 0; p < P; ++p) {
       std::uint64_t key = 0;
       for (int d = 0; d < 3; ++d) {
@@ -323,8 +326,9 @@ std::vector<int> all_candidates(const Model& model, std::size_t max_candidates) 
         key = (key << 21) | std::uint64_t(std::min(std::floor(u), double((1 << 20) - 1)));
       }
       const std::uint64_t draw = splitmix64_mix(p);
-      const auto [it, fresh] = drawn.emplace(key, std::make_pair(int(p), draw));
-      if (!fresh && draw < it->second.second) it->second = {int(p), draw};
+      const auto [it, fresh] = drawn.emplace(key, Cell{int(p), draw, 0.0});
+      if (!fresh && draw < it->second.draw) it->second.point = int(p), it->second.draw = draw;
+      it->second.mass += model.mass[p];
     }
     return drawn;
   };
@@ -333,8 +337,10 @@ std::vector<int> all_candidates(const Model& model, std::size_t max_candidates) 
     const double h = std::sqrt(fine * coarse);
     (cells(h).size() > max_candidates ? fine : coarse) = h;
   }
-  for (const auto& [key, point] : cells(coarse)) candidates.push_back(point.first);
-  std::sort(candidates.begin(), candidates.end());
+  std::vector<std::pair<int, double>> picked;
+  for (const auto& [key, cell] : cells(coarse)) picked.emplace_back(cell.point, cell.mass);
+  std::sort(picked.begin(), picked.end());
+  for (const auto& [point, mass] : picked) candidates.points.push_back(point), candidates.masses.push_back(mass);
   return candidates;
 }
 

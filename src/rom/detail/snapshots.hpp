@@ -13,14 +13,14 @@ namespace mpmrom::impl {
 // One snapshot, a row per point: dg/dxhat (rows, 3, r), the fields whose projections J^T (field) the samples must
 // reproduce (each (rows, 3)) and, for the Galerkin step, each point's reduced force per unit mass (rows, r; null:
 // none). The rows are every point (points null) or, on a body larger than the offline candidates, the candidates
-// alone (points: their indices, all_candidates): each row then stands for mass_scale times its mass, so that the
-// rows' mass-weighted sums are a quadrature of the all-point ones.
+// alone (points: their indices, all_candidates): each row then stands for the mass of its cell's points
+// (row_masses), so that the rows' mass-weighted sums are a quadrature of the all-point ones.
 struct PointSnapshot {
   const double* J;
   std::vector<const double*> fields;
   const double* reduced = nullptr;
   const std::vector<int>* points = nullptr;
-  double mass_scale = 1;
+  const std::vector<double>* row_masses = nullptr;  // null: each row is its point, of the point's own mass
   // The all-point sums' reduced force per unit mass where it is another step's than the samples' (the grid step's,
   // CubatureTarget::Grid; null: reduced).
   const double* reduced_target = nullptr;
@@ -28,6 +28,10 @@ struct PointSnapshot {
   std::size_t blocks() const { return fields.size() + (reduced != nullptr ? 1 : 0); }
   std::size_t rows(std::size_t num_points) const { return points ? points->size() : num_points; }
   std::size_t point(std::size_t row) const { return points ? std::size_t((*points)[row]) : row; }
+  // The mass a row stands for in the all-point sums, given every point's own.
+  double row_mass(std::size_t row, const std::vector<double>& point_masses) const {
+    return row_masses ? (*row_masses)[row] : point_masses[point(row)];
+  }
   // The rows of the given points; throws std::invalid_argument when one has none.
   std::vector<std::size_t> rows_of(const std::vector<int>& wanted) const;
 };
@@ -36,8 +40,14 @@ using SnapshotStream = std::function<void(const std::function<void(const PointSn
 // The snapshots `snapshots` describes: the full-order runs, the all-point reduced motion or its training states.
 SnapshotStream snapshot_stream(const Model& model, const CubatureSnapshots& snapshots);
 
-// Every point, or at most max_candidates spread evenly in space over a larger body, one a cell of a uniform grid (in
-// increasing order): the candidates of the offline selections.
-std::vector<int> all_candidates(const Model& model, std::size_t max_candidates);
+// The candidates of the offline selections: every point, or at most max_candidates spread evenly in space over a
+// larger body, one a cell of a uniform grid (points, in increasing order), each standing for the mass of its cell's
+// points (masses; a uniform scale of the candidates' own masses over-weighs the part-filled cells of the surface,
+// where the grid step's and the Galerkin step's integrands differ most).
+struct Candidates {
+  std::vector<int> points;
+  std::vector<double> masses;
+};
+Candidates all_candidates(const Model& model, std::size_t max_candidates);
 
 }  // namespace mpmrom::impl
