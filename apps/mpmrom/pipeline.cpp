@@ -49,7 +49,8 @@ void add_pipeline(CLI::App& app, Commands& commands) {
                       "Networks to train, r x width x depth (e.g. 5x48x5 3x16x5); default: train's defaults, or "
                       "r in {3,5,8} x width in {16,32,48} with --target-error");
   add_defaulted(command, "--epochs", o->pipeline_settings.training.epochs, "Training epochs per network");
-  add_defaulted(command, "--methods", o->pipeline_methods, "ROM algorithms: point (1), node (2)");
+  add_defaulted(command, "--methods", o->pipeline_methods,
+                "ROM algorithms: point (Algorithm 1), node (Algorithm 2), galerkin; default: point galerkin");
   add_defaulted(command, "--samples", o->pipeline_settings.samples, "Sample counts to try (0: all points)");
   add_defaulted(command, "--rom-cfl", o->pipeline_settings.rom_cfls, "ROM time steps as CFL numbers (0: the scene's)");
   add_defaulted(command, "--validation-runs", o->pipeline_settings.validation_runs,

@@ -44,15 +44,19 @@ SnapshotStream training_runs(const Model& model, const TrainingData& data, std::
   };
 }
 
-// Up to max_rollouts training runs of the scene's design, spread evenly, with their design indices.
-std::vector<RolloutCase> training_cases(const Scene& scene, std::size_t max_rollouts, std::vector<int>& indices) {
+// Up to max_rollouts training runs of the scene's design (those `usable` keeps), spread evenly, with their design
+// indices.
+std::vector<RolloutCase> training_cases(const Scene& scene, std::size_t max_rollouts, std::vector<int>& indices,
+                                        const std::function<bool(int)>& usable = {}) {
   std::vector<RolloutCase> cases;
   std::vector<int> all_indices;
   const auto runs = scene.design.all_runs();
   for (std::size_t i = 0; i < runs.size(); ++i)
-    if (std::find(scene.design.test_runs.begin(), scene.design.test_runs.end(), int(i)) == scene.design.test_runs.end())
+    if (std::find(scene.design.test_runs.begin(), scene.design.test_runs.end(), int(i)) ==
+            scene.design.test_runs.end() &&
+        (!usable || usable(int(i))))
       cases.push_back({runs[i], "train"}), all_indices.push_back(int(i));
-  if (cases.empty()) cases.push_back({{}, ""}), all_indices.push_back(0);  // a scene without a design: its one run
+  if (runs.empty()) cases.push_back({{}, ""}), all_indices.push_back(0);  // a scene without a design: its one run
   const std::size_t stride = std::max<std::size_t>(1, (cases.size() + max_rollouts - 1) / max_rollouts);
   std::vector<RolloutCase> picked;
   indices.clear();
@@ -223,7 +227,13 @@ SnapshotStream training_states(const Model& model, const std::string& scene_path
     // A body larger than the candidates is sampled at them alone (J at 2048 points instead of every one).
     const impl::Candidates candidates = impl::all_candidates(model, max_candidates);
     const bool sampled = candidates.points.size() < model.num_points();
-    const auto cases = training_cases(scene, max_rollouts, indices);
+    // the runs the model was trained on (the pipeline holds some of the design's training runs out to validate)
+    const auto cases = training_cases(scene, max_rollouts, indices,
+                                      [&model](int index) { return !codes_of_run(model, index).empty(); });
+    if (cases.empty())
+      throw std::runtime_error(
+          "cubature: the model holds the codes of none of the scene's training runs (the "
+          "training states are the model's codes of the sweep's run_<index>.h5)");
     const std::vector<int> rows = sampled ? candidates.points : every_point(model);
     auto stepper = snapshot_stepper(model, scene_path, scene, settings, cases, rows);
     auto grid = grid_target_stepper(model, scene_path, scene, settings, cases, rows);

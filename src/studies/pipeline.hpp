@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -40,10 +41,10 @@ struct PipelineSettings {
   // Networks to train (empty: the training settings' own shape, or the search space with targets).
   std::vector<NetworkShape> networks;
   TrainingSettings training;  // everything but the shape
-  std::vector<RomMethod> methods{RomMethod::MaterialPoint};
+  std::vector<RomMethod> methods{RomMethod::MaterialPoint, RomMethod::Galerkin};
   std::vector<int> samples{8, 15, 30, 0};
   std::vector<double> rom_cfls{0, 3.0};
-  SampleSelection selection = SampleSelection::GreedyProjection;  // the rollout's default (docs/rom.md)
+  std::optional<SampleSelection> selection;  // nullopt: each method's, as the rollout's defaults (docs/rom.md)
   int validation_runs = -1;           // training runs held out to choose models (-1: about a sixth of them, at least 1)
   std::vector<double> target_errors;  // position_error targets for the model search (fractions; empty: no search)
   std::vector<int> batch_sizes{1, 4, 16, 64};  // batch throughput of the chosen (or only) configuration

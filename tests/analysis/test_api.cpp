@@ -318,6 +318,25 @@ TEST_F(RolloutBatchApi, CubatureHeldOutRunOfATwiceTakenRunMatchesTheFit) {
   EXPECT_GT(unlimited.held_out_misfits[0], 10 * unlimited.misfits[0] + 1e-9);
 }
 
+// The training states are those of the runs the model was trained on: a design with a training run the model never
+// saw (the pipeline holds some out to validate) fits over the others instead of stopping at the run it has no codes
+// of; the fit still holds a run out (two runs are left). A design none of whose runs the model holds is refused.
+TEST_F(RolloutBatchApi, TrainingStatesTakeTheRunsTheModelWasTrainedOn) {
+  const Model model = load_model(model_path());
+  const std::string wider = (dir_ / "wider.toml").string(), other = (dir_ / "other.toml").string();
+  std::ofstream(wider) << pushed_block_scene("pushed_block", 0.04, 4, 0.4, {0.5, 1.0, 1.5, 1.25}, 1);
+  std::ofstream(other) << pushed_block_scene("pushed_block", 0.04, 4, 0.4, {0.5, 1.0}, 0);
+  CubatureSnapshots states;
+  states.scene_path = wider;
+  states.count = 8;
+  states.settings = rom_defaults(RomMethod::Galerkin);
+  const CubatureFit fit = cubature_selection(model, states, 4);
+  EXPECT_FALSE(fit.samples.empty());
+  EXPECT_EQ(fit.held_out_misfits.size(), fit.misfits.size());
+  states.scene_path = other;  // its one training run is run 1, the model's test run
+  EXPECT_THROW(cubature_selection(model, states, 4), std::runtime_error);
+}
+
 // Greedy selection on the projection, over the reduced motion and over the training states (one sub-step from each):
 // as many samples as asked for, distinct, weighted by their masses; with every point as a candidate taken, the
 // samples' projection is the all-point one, so the error is only the selection's ridge (1e-8 of the trace, relative

@@ -5,15 +5,14 @@
 
 namespace mpmrom {
 
-StudyRunner::StudyRunner(const std::string& scene_path, SampleSelection selection)
+StudyRunner::StudyRunner(const std::string& scene_path, std::optional<SampleSelection> selection)
     : scene_path_(scene_path), scene_(load_scene(scene_path)), selection_(selection) {}
 
 RomSettings StudyRunner::rom_settings(RomMethod method, int samples, double cfl) const {
-  RomSettings rom;
-  rom.method = method;
+  RomSettings rom = rom_defaults(method);
   rom.samples = samples;
   rom.cfl = cfl;
-  rom.selection = selection_;
+  if (selection_) rom.selection = *selection_;
   return rom;
 }
 

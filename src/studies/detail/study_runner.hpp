@@ -4,6 +4,7 @@
 
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -13,13 +14,14 @@ namespace mpmrom {
 
 class StudyRunner {
  public:
-  StudyRunner(const std::string& scene_path, SampleSelection selection);
+  // selection: the study's sample selection, or (nullopt) each method's default (rom_defaults).
+  StudyRunner(const std::string& scene_path, std::optional<SampleSelection> selection);
 
   const Scene& scene() const { return scene_; }
   const std::string& scene_path() const { return scene_path_; }
   const std::vector<std::string>& names() const { return scene_.design.names; }
 
-  // A configuration with the study's sample selection (cfl 0: the scene's); the rest are RomSettings' defaults.
+  // A configuration with the study's sample selection (cfl 0: the scene's); the rest are the method's defaults.
   RomSettings rom_settings(RomMethod method, int samples, double cfl) const;
   // The hyper-reduction rom asks for on the scene (prepare_hyper_reduction; data: the training runs, where the
   // selection fits them); log receives its fits' lines.
@@ -35,7 +37,7 @@ class StudyRunner {
  private:
   std::string scene_path_;
   Scene scene_;
-  SampleSelection selection_;
+  std::optional<SampleSelection> selection_;
   // The greedy projection's snapshots of rom's step on model, kept for the next call with the same (the study's
   // training runs, data, do not change between calls).
   const ProjectionSelector& selector(const Model& model, const RomSettings& rom,
