@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # The committed speed-against-accuracy report for the poke cylinder (docs/results/poke_pipeline/): the pipeline with
 # the model search for two targets (1 % and 0.3 % validation position error) over r in {3, 5, 8} at width 16 and
-# r = 5 at width 32 (5 layers), Algorithm 1 with 8, 15, 30 and all samples at the scene's time step and at CFL 3.
-# About 40 minutes on 2 CPU cores (training and the all-points rollouts); outputs in out/poke_report/, the report,
+# r = 5 at width 32 (5 layers), Algorithm 1 and the Galerkin step with 8, 15, 30 and all samples at the scene's time
+# step and at CFL 3. About 80 minutes on 2 CPU cores (training, the Galerkin fits and the all-points rollouts);
+# outputs in out/poke_report/, the report,
 # its JSON and its charts copied to docs/results/poke_pipeline/.
 set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
