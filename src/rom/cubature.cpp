@@ -43,8 +43,8 @@ struct CubatureSystem {
   int blocks() const { return 1 + int((per_snapshot - std::size_t(r * (r + 1) / 2)) / std::size_t(r)); }
 };
 
-// The row's quantities as a candidate, or (target) as a term of the all-point sums.
-void point_quantities(const PointSnapshot& snapshot, std::size_t p, int r, bool target, double* out) {
+// The row's quantities: a candidate's column, and its term of the all-point sums.
+void point_quantities(const PointSnapshot& snapshot, std::size_t p, int r, double* out) {
   const double* J = snapshot.J + p * 3 * std::size_t(r);
   int k = 0;
   for (int i = 0; i < r; ++i)
@@ -59,9 +59,8 @@ void point_quantities(const PointSnapshot& snapshot, std::size_t p, int r, bool 
       for (int d = 0; d < 3; ++d) sum += J[d * r + i] * field[p * 3 + d];
       out[k++] = sum;
     }
-  const double* reduced = target && snapshot.reduced_target != nullptr ? snapshot.reduced_target : snapshot.reduced;
-  if (reduced != nullptr)
-    for (int i = 0; i < r; ++i) out[k++] = reduced[p * std::size_t(r) + std::size_t(i)];
+  if (snapshot.reduced != nullptr)
+    for (int i = 0; i < r; ++i) out[k++] = snapshot.reduced[p * std::size_t(r) + std::size_t(i)];
 }
 
 CubatureSystem cubature_system(const Model& model, const SnapshotStream& snapshots,
@@ -80,13 +79,16 @@ CubatureSystem cubature_system(const Model& model, const SnapshotStream& snapsho
     system.f.resize(first + Q, 0.0);
     system.E.resize((first + Q) * C, 0.0);
     for (std::size_t row = 0; row < snapshot.rows(P); ++row) {
-      point_quantities(snapshot, row, r, true, q.data());
+      point_quantities(snapshot, row, r, q.data());
       const double m = snapshot.row_mass(row, model.mass);
       for (std::size_t k = 0; k < Q; ++k) system.f[first + k] += m * q[k];
     }
+    if (snapshot.reduced_target_sum != nullptr)  // the force block, last
+      for (int k = 0; k < r; ++k)
+        system.f[first + Q - std::size_t(r) + std::size_t(k)] = snapshot.reduced_target_sum[k];
     const std::vector<std::size_t> rows = snapshot.rows_of(candidates);
     for (std::size_t c = 0; c < C; ++c) {
-      point_quantities(snapshot, rows[c], r, false, q.data());
+      point_quantities(snapshot, rows[c], r, q.data());
       for (std::size_t k = 0; k < Q; ++k) system.E[(first + k) * C + c] = q[k];
     }
   });

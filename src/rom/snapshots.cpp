@@ -125,38 +125,46 @@ void use_last_substep(const impl::BatchStepperBase& stepper, const impl::Candida
 
 // The Galerkin step's snapshot of one sub-step from `state` with the grid step's reduced force as the all-point
 // target (CubatureTarget::Grid): both steppers advance one sub-step from the state; the Galerkin stepper gives J at
-// its trial state, the momentum J^T v_n and the candidates' forces q, the grid stepper (Algorithm 1 at the same
-// points) the force its sub-step applied, J_trial^T (v_G2P - v_n) / dt, which the samples' q must reproduce.
+// its trial state, the momentum J^T v_n and the forces q at its rows (every point, or the candidates), the grid
+// stepper (Algorithm 1 with every point) the force its sub-step applied, sum_p m_p J_trial^T (v_G2P - v_n) / dt over
+// the whole body, which the samples' q must reproduce. Summed over every point, not over the candidates: the two
+// steps' per-point terms are different integrands of one weak form, equal only summed over the body.
 void use_grid_target(impl::BatchStepperBase& galerkin, impl::BatchStepperBase& grid, const impl::BatchState& state,
-                     const impl::Candidates* candidates, std::size_t P,
+                     const impl::Candidates* candidates, const Model& model,
                      const std::function<void(const PointSnapshot&)>& use) {
-  const std::vector<int>* points = candidates ? &candidates->points : nullptr;
   galerkin.restore(state);
   const double dt = galerkin.probe_substep();
   grid.restore(state);
   if (dt <= 0 || grid.probe_substep() != dt) throw std::logic_error("cubature: the two steps' time steps differ");
-  const int r = galerkin.latent_dim();
-  const std::size_t S = points ? points->size() : P;
+  const std::size_t r = std::size_t(galerkin.latent_dim()), P = model.num_points();
+  const std::size_t S = candidates ? candidates->points.size() : P;
   const auto own = galerkin.last_projection_inputs(), moved = grid.last_projection_inputs();
-  std::vector<double> target(S * std::size_t(r));
+  // v_n at every point: the Galerkin step's own where its rows are every point, else J at the state's codes
+  const std::vector<double> J_before =
+      candidates ? impl::decoder_jacobians(model, model.X, state.xhat) : std::vector<double>();
+  std::vector<double> target(r);
   for (int b = 0; b < galerkin.rollouts(); ++b) {
     if ((galerkin.flags(b) | grid.flags(b)) & rom::fatal_flags) continue;
-    const std::size_t first = std::size_t(b) * S;
-    const double* J = &moved.J[first * 3 * std::size_t(r)];
-    for (std::size_t s = 0; s < S; ++s)
-      for (int k = 0; k < r; ++k) {
-        double f = 0;
-        for (int d = 0; d < 3; ++d)
-          f += J[(s * 3 + std::size_t(d)) * std::size_t(r) + std::size_t(k)] *
-               (moved.velocity[(first + s) * 3 + std::size_t(d)] - own.velocity[(first + s) * 3 + std::size_t(d)]);
-        target[s * std::size_t(r) + std::size_t(k)] = f / dt;
+    std::fill(target.begin(), target.end(), 0.0);
+    for (std::size_t p = 0; p < P; ++p) {
+      const std::size_t point = std::size_t(b) * P + p;
+      for (std::size_t d = 0; d < 3; ++d) {
+        double v_n = 0;
+        if (candidates)
+          for (std::size_t q = 0; q < r; ++q) v_n += J_before[(point * 3 + d) * r + q] * state.xhatdot[b * r + q];
+        else
+          v_n = own.velocity[point * 3 + d];
+        const double change = model.mass[p] * (moved.velocity[point * 3 + d] - v_n) / dt;
+        for (std::size_t k = 0; k < r; ++k) target[k] += moved.J[(point * 3 + d) * r + k] * change;
       }
-    PointSnapshot snapshot{&own.J[first * 3 * std::size_t(r)],
+    }
+    const std::size_t first = std::size_t(b) * S;
+    PointSnapshot snapshot{&own.J[first * 3 * r],
                            {&own.velocity[first * 3]},
-                           &own.force[first * std::size_t(r)],
-                           points,
+                           &own.force[first * r],
+                           candidates ? &candidates->points : nullptr,
                            candidates ? &candidates->masses : nullptr};
-    snapshot.reduced_target = target.data();
+    snapshot.reduced_target_sum = target.data();
     snapshot.run = b;
     use(snapshot);
   }
@@ -194,7 +202,7 @@ SnapshotStream reduced_motion(const Model& model, const std::string& scene_path,
     while (grid->advance_frame()) {
       const impl::BatchState state = grid->state();
       if (state.frame + 1 >= grid->frames()) break;
-      use_grid_target(*stepper, *grid, state, nullptr, model.num_points(), use);
+      use_grid_target(*stepper, *grid, state, nullptr, model, use);
       grid->restore(state);
     }
   };
@@ -236,7 +244,7 @@ SnapshotStream training_states(const Model& model, const std::string& scene_path
           "training states are the model's codes of the sweep's run_<index>.h5)");
     const std::vector<int> rows = sampled ? candidates.points : every_point(model);
     auto stepper = snapshot_stepper(model, scene_path, scene, settings, cases, rows);
-    auto grid = grid_target_stepper(model, scene_path, scene, settings, cases, rows);
+    auto grid = grid_target_stepper(model, scene_path, scene, settings, cases, every_point(model));
     const std::size_t r = std::size_t(model.latent_dim);
     std::vector<std::vector<std::size_t>> codes;
     for (const int index : indices) codes.push_back(codes_of_run(model, index));
@@ -259,7 +267,7 @@ SnapshotStream training_states(const Model& model, const std::string& scene_path
         }
       }
       if (grid) {
-        use_grid_target(*stepper, *grid, state, sampled ? &candidates : nullptr, model.num_points(), use);
+        use_grid_target(*stepper, *grid, state, sampled ? &candidates : nullptr, model, use);
         continue;
       }
       stepper->restore(state);

@@ -21,9 +21,9 @@ struct PointSnapshot {
   const double* reduced = nullptr;
   const std::vector<int>* points = nullptr;
   const std::vector<double>* row_masses = nullptr;  // null: each row is its point, of the point's own mass
-  // The all-point sums' reduced force per unit mass where it is another step's than the samples' (the grid step's,
-  // CubatureTarget::Grid; null: reduced).
-  const double* reduced_target = nullptr;
+  // The reduced force's all-point sum (r values) where it is another step's than the samples' (the grid step's over
+  // every point, CubatureTarget::Grid; null: the rows' mass-weighted sum of reduced).
+  const double* reduced_target_sum = nullptr;
   int run = 0;  // the training run (of the stream's) it was taken from: the fits hold one run out to validate
   std::size_t blocks() const { return fields.size() + (reduced != nullptr ? 1 : 0); }
   std::size_t rows(std::size_t num_points) const { return points ? points->size() : num_points; }
