@@ -123,6 +123,9 @@ struct HyperReduction {
   std::vector<double> weight_misfits;
   // The same over a training run held out of the fit (CubatureFit::held_out_misfits); empty: none.
   std::vector<double> weight_misfits_held_out;
+  // The Galerkin step's bound on the time step from its reduced dynamics, 1 / omega for the highest frequency omega
+  // over the training states (docs/rom.md "Time step"); 0: none (the CFL number alone sets the step).
+  double stable_time_step = 0;
   // Algorithm 1: the material points feeding the transfer, samples first (M, then the neighbours N).
   std::vector<int> source_points;
   // Algorithm 2: quadrature points (current configuration) and their volume weights.

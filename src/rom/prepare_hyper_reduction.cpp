@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "mpmrom/rom.hpp"
+#include "rom/detail/stable_step.hpp"
 
 namespace mpmrom {
 namespace {
@@ -83,11 +84,10 @@ CubatureFit joint_selection(const Model& model, const Scene& scene, const RomSet
   return selected;
 }
 
-}  // namespace
-
-HyperReduction prepare_hyper_reduction(const Model& model, const Scene& scene, const RomSettings& settings,
-                                       const TrainingData* data, const std::function<void(const std::string&)>& log,
-                                       const SelectorSource& selector) {
+// The samples, their sets and weights, without the Galerkin step's time-step bound.
+HyperReduction fitted_reduction(const Model& model, const Scene& scene, const RomSettings& settings,
+                                const TrainingData* data, const std::function<void(const std::string&)>& log,
+                                const SelectorSource& selector) {
   const CubatureFit selected = joint_selection(model, scene, settings, data, log, selector);
   const auto samples = selected.samples.empty() ? select_samples(model, scene, settings, data) : selected.samples;
   HyperReduction reduction = build_hyper_reduction(model, scene, settings, samples);
@@ -108,6 +108,26 @@ HyperReduction prepare_hyper_reduction(const Model& model, const Scene& scene, c
         (fit.held_out_misfits.empty()
              ? ""
              : "; over a training run held out of the same fit" + misfit_list(fit.held_out_misfits)));
+  return reduction;
+}
+
+}  // namespace
+
+HyperReduction prepare_hyper_reduction(const Model& model, const Scene& scene, const RomSettings& settings,
+                                       const TrainingData* data, const std::function<void(const std::string&)>& log,
+                                       const SelectorSource& selector) {
+  HyperReduction reduction = fitted_reduction(model, scene, settings, data, log, selector);
+  if (settings.method != RomMethod::Galerkin) return reduction;
+  // Symplectic Euler is stable below 2 / omega; half of it leaves room for states between the training states.
+  const double omega = impl::reduced_highest_frequency(model, scene, settings, reduction);
+  if (omega > 0) reduction.stable_time_step = 1 / omega;
+  if (log) {
+    char line[160];
+    std::snprintf(line, sizeof line,
+                  "reduced dynamics: highest frequency %.4g rad/s over the training states, time step at most %.4g s",
+                  omega, reduction.stable_time_step);
+    log(line);
+  }
   return reduction;
 }
 

@@ -124,6 +124,9 @@ void write_hyper_reduction(hdf5::File& file, const HyperReduction& sets) {
   if (!sets.force_weights.empty())  // absent: the Galerkin forces weighted as the samples
     write_dataset(reduction, "sample_force_weights", hdf5::Element::float64, sets.force_weights,
                   {sets.force_weights.size()});
+  if (sets.stable_time_step > 0)  // absent: no bound on the step but the CFL number's
+    write_dataset(reduction, "stable_time_step", hdf5::Element::float64, std::vector<double>{sets.stable_time_step},
+                  {1});
 }
 
 // The sets in /hyper_reduction (write_hyper_reduction) for the given samples.
@@ -155,6 +158,10 @@ HyperReduction read_hyper_reduction(const std::string& path, const hdf5::Group& 
   if (reduction.has_child("sample_force_weights"))
     sets.force_weights =
         impl::read_checked(path, reduction.dataset("sample_force_weights"), {samples.size()}, "(samples)");
+  if (reduction.has_child("stable_time_step")) {
+    sets.stable_time_step = impl::read_checked(path, reduction.dataset("stable_time_step"), {1}, "(1)")[0];
+    if (!(sets.stable_time_step > 0)) bad(path, "/hyper_reduction/stable_time_step must be positive");
+  }
   return sets;
 }
 

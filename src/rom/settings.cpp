@@ -182,7 +182,8 @@ nlohmann::json HyperReduction::summary() const {
           {"nodes", nodes.size()},
           {"node_source_pairs", node_sources.size()},
           {"weight_misfits", weight_misfits},
-          {"weight_misfits_held_out", weight_misfits_held_out}};
+          {"weight_misfits_held_out", weight_misfits_held_out},
+          {"stable_time_step", stable_time_step}};
 }
 
 }  // namespace mpmrom

@@ -208,20 +208,6 @@ SnapshotStream reduced_motion(const Model& model, const std::string& scene_path,
   };
 }
 
-// The model's codes of design run `index` (its file named run_<index>.h5 by the sweep), by time.
-std::vector<std::size_t> codes_of_run(const Model& model, int index) {
-  std::vector<std::size_t> codes;
-  for (std::size_t c = 0; c < model.num_codes(); ++c) {
-    const std::string& path = model.runs[std::size_t(model.code_run[c])];
-    const std::size_t stem = path.find_last_of('/') == std::string::npos ? 0 : path.find_last_of('/') + 1;
-    if (path.compare(stem, 4, "run_") != 0) continue;
-    if (std::atoi(path.c_str() + stem + 4) == index) codes.push_back(c);
-  }
-  std::sort(codes.begin(), codes.end(),
-            [&](std::size_t a, std::size_t b) { return model.code_time[a] < model.code_time[b]; });
-  return codes;
-}
-
 // One sub-step from the model's own training states (every point, or the candidates of a larger body): for up to
 // max_rollouts training runs of the scene's design, at every inner output frame, xhat the run's code there and
 // xhatdot the central difference of its codes (as training defines the rate). Each snapshot costs one sub-step, not
@@ -235,37 +221,14 @@ SnapshotStream training_states(const Model& model, const std::string& scene_path
     // A body larger than the candidates is sampled at them alone (J at 2048 points instead of every one).
     const impl::Candidates candidates = impl::all_candidates(model, max_candidates);
     const bool sampled = candidates.points.size() < model.num_points();
-    // the runs the model was trained on (the pipeline holds some of the design's training runs out to validate)
-    const auto cases = training_cases(scene, max_rollouts, indices,
-                                      [&model](int index) { return !codes_of_run(model, index).empty(); });
-    if (cases.empty())
-      throw std::runtime_error(
-          "cubature: the model holds the codes of none of the scene's training runs (the "
-          "training states are the model's codes of the sweep's run_<index>.h5)");
+    const auto cases = impl::trained_cases(model, scene, max_rollouts, indices);
     const std::vector<int> rows = sampled ? candidates.points : every_point(model);
     auto stepper = snapshot_stepper(model, scene_path, scene, settings, cases, rows);
     auto grid = grid_target_stepper(model, scene_path, scene, settings, cases, every_point(model));
-    const std::size_t r = std::size_t(model.latent_dim);
-    std::vector<std::vector<std::size_t>> codes;
-    for (const int index : indices) codes.push_back(codes_of_run(model, index));
     impl::BatchState state = stepper->state();
-    const std::size_t frames = std::size_t(stepper->frames());
-    for (std::size_t f = 1; f + 1 < frames; ++f) {
-      state.frame = int(f);
-      for (std::size_t b = 0; b < codes.size(); ++b) {
-        if (codes[b].size() != frames)
-          throw std::runtime_error("cubature: the model holds " + std::to_string(codes[b].size()) +
-                                   " codes of design run " + std::to_string(indices[b]) + ", the scene " +
-                                   std::to_string(frames) + " frames");
-        const double* before = &model.codes[codes[b][f - 1] * r];
-        const double* now = &model.codes[codes[b][f] * r];
-        const double* after = &model.codes[codes[b][f + 1] * r];
-        const double span = model.code_time[codes[b][f + 1]] - model.code_time[codes[b][f - 1]];
-        for (std::size_t q = 0; q < r; ++q) {
-          state.xhat[b * r + q] = now[q];
-          state.xhatdot[b * r + q] = (after[q] - before[q]) / span;
-        }
-      }
+    for (int f = 1; f + 1 < stepper->frames(); ++f) {
+      state.frame = f;
+      impl::training_state(model, indices, f, stepper->frames(), state.xhat, state.xhatdot);
       if (grid) {
         use_grid_target(*stepper, *grid, state, sampled ? &candidates : nullptr, model, use);
         continue;
@@ -281,6 +244,53 @@ SnapshotStream training_states(const Model& model, const std::string& scene_path
 }  // namespace
 
 namespace impl {
+
+// The model's codes of design run `index` (its file named run_<index>.h5 by the sweep), by time.
+std::vector<std::size_t> codes_of_run(const Model& model, int index) {
+  std::vector<std::size_t> codes;
+  for (std::size_t c = 0; c < model.num_codes(); ++c) {
+    const std::string& path = model.runs[std::size_t(model.code_run[c])];
+    const std::size_t stem = path.find_last_of('/') == std::string::npos ? 0 : path.find_last_of('/') + 1;
+    if (path.compare(stem, 4, "run_") != 0) continue;
+    if (std::atoi(path.c_str() + stem + 4) == index) codes.push_back(c);
+  }
+  std::sort(codes.begin(), codes.end(),
+            [&](std::size_t a, std::size_t b) { return model.code_time[a] < model.code_time[b]; });
+  return codes;
+}
+
+std::vector<RolloutCase> trained_cases(const Model& model, const Scene& scene, std::size_t max_rollouts,
+                                       std::vector<int>& indices) {
+  // the runs the model was trained on (the pipeline holds some of the design's training runs out to validate)
+  auto cases =
+      training_cases(scene, max_rollouts, indices, [&model](int index) { return !codes_of_run(model, index).empty(); });
+  if (cases.empty())
+    throw std::runtime_error(
+        "cubature: the model holds the codes of none of the scene's training runs (the training states are the "
+        "model's codes of the sweep's run_<index>.h5)");
+  return cases;
+}
+
+void training_state(const Model& model, const std::vector<int>& indices, int frame, int frames,
+                    std::vector<double>& xhat, std::vector<double>& xhatdot) {
+  const std::size_t r = std::size_t(model.latent_dim), f = std::size_t(frame);
+  xhat.resize(indices.size() * r);
+  xhatdot.resize(indices.size() * r);
+  for (std::size_t b = 0; b < indices.size(); ++b) {
+    const std::vector<std::size_t> codes = codes_of_run(model, indices[b]);
+    if (codes.size() != std::size_t(frames))
+      throw std::runtime_error("cubature: the model holds " + std::to_string(codes.size()) + " codes of design run " +
+                               std::to_string(indices[b]) + ", the scene " + std::to_string(frames) + " frames");
+    const double* before = &model.codes[codes[f - 1] * r];
+    const double* now = &model.codes[codes[f] * r];
+    const double* after = &model.codes[codes[f + 1] * r];
+    const double span = model.code_time[codes[f + 1]] - model.code_time[codes[f - 1]];
+    for (std::size_t q = 0; q < r; ++q) {
+      xhat[b * r + q] = now[q];
+      xhatdot[b * r + q] = (after[q] - before[q]) / span;
+    }
+  }
+}
 
 std::vector<std::size_t> PointSnapshot::rows_of(const std::vector<int>& wanted) const {
   std::vector<std::size_t> rows;

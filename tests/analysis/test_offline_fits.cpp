@@ -234,6 +234,33 @@ TEST_F(RolloutBatchApi, GridForceTargetIsTheWholeBodysWhateverTheCandidates) {
   EXPECT_NEAR(over_fewer.misfits[2], over_every.misfits[2], 1e-9);
 }
 
+// The Galerkin step's time step stays within its reduced dynamics' bound (1 / omega, omega the highest frequency over
+// the training states) whatever the CFL number asks: at a CFL number whose step would be the whole output interval,
+// each interval takes exactly ceil(interval / bound) equal sub-steps, and no rollout stops. The bound is positive and
+// finite, and Algorithms 1 and 2 have none.
+TEST_F(RolloutBatchApi, GalerkinStepKeepsWithinItsReducedDynamicsBound) {
+  const Model model = load_model(model_path());
+  const Scene scene = load_scene(scene_path());
+  RomSettings galerkin = rom_defaults(RomMethod::Galerkin);
+  galerkin.samples = 4;
+  galerkin.cfl = 10;  // the largest taken
+  const HyperReduction reduction = prepare_hyper_reduction(model, scene, galerkin, nullptr, {}, {});
+  ASSERT_GT(reduction.stable_time_step, 0);
+  ASSERT_TRUE(std::isfinite(reduction.stable_time_step));
+  const RomResult result =
+      run_rollouts(model, scene_path(), scene.design.names, {{{1.0}, "test"}}, galerkin, reduction);
+  EXPECT_TRUE(result.outcomes[0].message.empty()) << result.outcomes[0].message;  // stopped: a message
+  long expected = 0;
+  for (std::size_t f = 1; f < result.times.size(); ++f)
+    expected += long(std::ceil((result.times[f] - result.times[f - 1]) / reduction.stable_time_step - 1e-9));
+  EXPECT_EQ(result.steps, expected);
+  EXPECT_GT(expected, long(result.times.size()) - 1);  // the bound, not the CFL number, set the step
+  RomSettings point;
+  point.samples = 4;
+  point.selection = SampleSelection::Random;
+  EXPECT_EQ(prepare_hyper_reduction(model, scene, point, nullptr, {}, {}).stable_time_step, 0.0);
+}
+
 // Greedy selection on the projection, over the reduced motion and over the training states (one sub-step from each):
 // as many samples as asked for, distinct, weighted by their masses; with every point as a candidate taken, the
 // samples' projection is the all-point one, so the error is only the selection's ridge (1e-8 of the trace, relative

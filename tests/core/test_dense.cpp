@@ -1,13 +1,16 @@
 // Host dense algebra: non-negative least squares (the reduced model's cubature weights) against its optimality
-// conditions and against problems with a known solution.
+// conditions and against problems with a known solution; the generalised symmetric eigenvalue (the reduced model's
+// highest frequency) against matrices built from known eigenvalues.
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <random>
 #include <vector>
 
 #include "core/math/nnls.hpp"
+#include "core/math/symmetric_eigen.hpp"
 
 namespace mpmrom::test {
 namespace {
@@ -89,6 +92,55 @@ TEST(Nnls, CapOnPositiveUnknownsIsRespectedAndObjectiveFallsWithIt) {
     }
     EXPECT_LE(objective, previous * (1 + 1e-12)) << cap;
     previous = objective;
+  }
+}
+
+// K = L Q D Q^T L^T with M = L L^T (L random lower triangular, Q random orthogonal) has the eigenvalues D against M,
+// whatever antisymmetric part is added to K (only its symmetric part counts, as for a finite-difference stiffness);
+// Jacobi rotations converge to 1e-15 of the norm, so 1e-10 relative is far above rounding. An M that is not positive
+// definite gives -infinity.
+TEST(GeneralisedEigenvalue, LargestOfKnownSpectraAgainstAMassMatrix) {
+  std::mt19937 gen(7);
+  std::normal_distribution<double> normal(0, 1);
+  for (const int n : {1, 3, 5, 8}) {
+    std::vector<double> L(std::size_t(n * n), 0.0), Q(std::size_t(n * n));
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j <= i; ++j) L[std::size_t(i * n + j)] = i == j ? 1 + std::fabs(normal(gen)) : normal(gen);
+    for (double& q : Q) q = normal(gen);
+    for (int c = 0; c < n; ++c) {  // Gram-Schmidt on Q's columns
+      for (int k = 0; k < c; ++k) {
+        double dot = 0;
+        for (int i = 0; i < n; ++i) dot += Q[std::size_t(i * n + c)] * Q[std::size_t(i * n + k)];
+        for (int i = 0; i < n; ++i) Q[std::size_t(i * n + c)] -= dot * Q[std::size_t(i * n + k)];
+      }
+      double norm = 0;
+      for (int i = 0; i < n; ++i) norm += Q[std::size_t(i * n + c)] * Q[std::size_t(i * n + c)];
+      for (int i = 0; i < n; ++i) Q[std::size_t(i * n + c)] /= std::sqrt(norm);
+    }
+    std::vector<double> D(static_cast<std::size_t>(n));
+    for (int i = 0; i < n; ++i) D[std::size_t(i)] = 100 * normal(gen);  // of both signs
+    const double largest = *std::max_element(D.begin(), D.end());
+    std::vector<double> LQ(std::size_t(n * n), 0.0), K(std::size_t(n * n), 0.0), M(std::size_t(n * n), 0.0);
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < n; ++j)
+        for (int k = 0; k < n; ++k) {
+          LQ[std::size_t(i * n + j)] += L[std::size_t(i * n + k)] * Q[std::size_t(k * n + j)];
+          M[std::size_t(i * n + j)] += L[std::size_t(i * n + k)] * L[std::size_t(j * n + k)];
+        }
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < n; ++j)
+        for (int k = 0; k < n; ++k)
+          K[std::size_t(i * n + j)] += LQ[std::size_t(i * n + k)] * D[std::size_t(k)] * LQ[std::size_t(j * n + k)];
+    EXPECT_NEAR(dense::largest_generalised_eigenvalue(K, M, n), largest, 1e-10 * 100) << n;
+    for (int i = 0; i < n; ++i)
+      for (int j = i + 1; j < n; ++j) {
+        const double a = normal(gen);
+        K[std::size_t(i * n + j)] += a;
+        K[std::size_t(j * n + i)] -= a;
+      }
+    EXPECT_NEAR(dense::largest_generalised_eigenvalue(K, M, n), largest, 1e-10 * 100) << n << " antisymmetric part";
+    M[0] = -1;
+    EXPECT_EQ(dense::largest_generalised_eigenvalue(K, M, n), -std::numeric_limits<double>::infinity()) << n;
   }
 }
 

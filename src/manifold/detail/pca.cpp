@@ -1,46 +1,12 @@
 #include "manifold/detail/pca.hpp"
 
+#include "core/math/symmetric_eigen.hpp"
+
 #include <algorithm>
 #include <cmath>
 
 namespace mpmrom {
 namespace {
-
-// Eigen-decomposition of a small symmetric matrix (n x n, row-major) by cyclic Jacobi rotations: A becomes diagonal
-// (the eigenvalues), V (row-major, columns = eigenvectors) accumulates the rotations.
-void symmetric_jacobi(std::vector<double>& A, std::vector<double>& V, int n) {
-  V.assign(std::size_t(n) * n, 0.0);
-  for (int i = 0; i < n; ++i) V[i * n + i] = 1;
-  for (int sweep = 0; sweep < 100; ++sweep) {
-    double off = 0, total = 0;
-    for (int i = 0; i < n; ++i)
-      for (int j = 0; j < n; ++j) (i == j ? total : off) += A[i * n + j] * A[i * n + j];
-    if (off <= 1e-30 * (total + off)) return;
-    for (int p = 0; p < n; ++p)
-      for (int q = p + 1; q < n; ++q) {
-        const double apq = A[p * n + q];
-        if (apq == 0) continue;
-        const double theta = (A[q * n + q] - A[p * n + p]) / (2 * apq);
-        const double t = (theta >= 0 ? 1 : -1) / (std::abs(theta) + std::sqrt(theta * theta + 1));
-        const double c = 1 / std::sqrt(t * t + 1), s = t * c;
-        for (int k = 0; k < n; ++k) {  // A <- A J (columns p, q)
-          const double akp = A[k * n + p], akq = A[k * n + q];
-          A[k * n + p] = c * akp - s * akq;
-          A[k * n + q] = s * akp + c * akq;
-        }
-        for (int k = 0; k < n; ++k) {  // A <- J^T A (rows p, q)
-          const double apk = A[p * n + k], aqk = A[q * n + k];
-          A[p * n + k] = c * apk - s * aqk;
-          A[q * n + k] = s * apk + c * aqk;
-        }
-        for (int k = 0; k < n; ++k) {
-          const double vkp = V[k * n + p], vkq = V[k * n + q];
-          V[k * n + p] = c * vkp - s * vkq;
-          V[k * n + q] = s * vkp + c * vkq;
-        }
-      }
-  }
-}
 
 // Orthonormalises the m columns of Q (rows x m, row-major) in place by modified Gram-Schmidt; a column that
 // vanishes against the previous ones is left at zero.
@@ -110,7 +76,7 @@ std::vector<double> principal_coordinates(const std::vector<double>& data, std::
       for (std::size_t i = 0; i < rows; ++i) dot += Q[i * m + a] * Z[i * m + b];
       B[a * m + b] = dot;
     }
-  symmetric_jacobi(B, V, m);
+  dense::symmetric_jacobi(B, V, m);
   std::vector<int> order(m);
   for (int k = 0; k < m; ++k) order[k] = k;
   std::sort(order.begin(), order.end(), [&](int a, int b) { return B[a * m + a] > B[b * m + b]; });

@@ -62,6 +62,7 @@ class BatchStepper final : public BatchStepperBase {
         wave_speed_(double(stable_time_step_wave_speed(material_, real_t(scene.material.density)))),
         cfl_(settings.cfl > 0 ? settings.cfl : scene.cfl),
         dx_(scene.dx),
+        stable_dt_(h.stable_time_step),
         density_(real_t(scene.material.density)),
         domain_(reference_domain(scene)),
         max_failed_inversions_(int(std::floor(settings.max_failed_inversions * K_))) {
@@ -158,7 +159,7 @@ class BatchStepper final : public BatchStepperBase {
       max_speed = shared[0];
       all_stopped = shared[1] == 0;
     }
-    const double dt_max = cfl_ * dx_ / (wave_speed_ + max_speed);
+    const double dt_max = max_time_step(max_speed);
     const long substeps = all_stopped ? 0 : std::max(1L, long(std::ceil((target - time) / dt_max - 1e-9)));
     const double dt_interval = substeps > 0 ? (target - time) / double(substeps) : 0.0;
     for (long sub = 0; sub < substeps; ++sub) {
@@ -173,10 +174,16 @@ class BatchStepper final : public BatchStepperBase {
     return true;
   }
 
+  // The CFL number's step at the fastest sample's speed, within the reduced dynamics' bound.
+  double max_time_step(double max_speed) const {
+    const double cfl_step = cfl_ * dx_ / (wave_speed_ + max_speed);
+    return stable_dt_ > 0 ? std::min(cfl_step, stable_dt_) : cfl_step;
+  }
+
   double probe_substep() override {
     if (frame_ + 1 >= frames()) return 0;
     const double time = times_[std::size_t(frame_)], interval = times_[std::size_t(frame_ + 1)] - time;
-    const double dt_max = cfl_ * dx_ / (wave_speed_ + double(max_speed_));
+    const double dt_max = max_time_step(double(max_speed_));
     const real_t dt = real_t(interval / std::max(1.0, std::ceil(interval / dt_max - 1e-9)));
     substep(real_t(time), dt);
     return double(dt);
@@ -429,6 +436,7 @@ class BatchStepper final : public BatchStepperBase {
   ElasticMaterial<real_t> material_;
   bool apic_;
   double wave_speed_, cfl_, dx_;
+  double stable_dt_;  // the reduced dynamics' bound (HyperReduction::stable_time_step; 0: none)
   real_t density_;
   rom::ReferenceDomain domain_;
   int max_failed_inversions_;

@@ -40,6 +40,17 @@ using SnapshotStream = std::function<void(const std::function<void(const PointSn
 // The snapshots `snapshots` describes: the full-order runs, the all-point reduced motion or its training states.
 SnapshotStream snapshot_stream(const Model& model, const CubatureSnapshots& snapshots);
 
+// The design's training runs whose codes the model holds (run_<index>.h5 of its sweep; the pipeline trains without
+// its validation runs), up to max_rollouts spread evenly, as rollout cases with their design indices (indices); throws
+// when the model holds none.
+std::vector<RolloutCase> trained_cases(const Model& model, const Scene& scene, std::size_t max_rollouts,
+                                       std::vector<int>& indices);
+// The model's training state at inner output frame `frame` of each of the design runs `indices` (the scene has
+// `frames` output frames): xhat the run's code, xhatdot the central difference of its codes (training's rate), each
+// (runs, r). Throws when the model holds another number of codes of a run.
+void training_state(const Model& model, const std::vector<int>& indices, int frame, int frames,
+                    std::vector<double>& xhat, std::vector<double>& xhatdot);
+
 // The candidates of the offline selections: every point, or at most max_candidates spread evenly in space over a
 // larger body, one a cell of a uniform grid (points, in increasing order), each standing for the mass of its cell's
 // points (masses; a uniform scale of the candidates' own masses over-weighs the part-filled cells of the surface,
