@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "mpmrom/mpmrom_config.hpp"  // real_t
 #include "rollout_batch_fixture.hpp"
 #include "rom/rom_file.hpp"
 #include "analysis/evaluation.hpp"
@@ -212,7 +213,9 @@ TEST_F(RolloutBatchApi, TrainingStatesTakeTheRunsTheModelWasTrainedOn) {
 // The Galerkin step's force target over the training states is the grid step's force summed over the whole body,
 // whatever the candidates: on a body of more points than the candidates the same samples' force weights fit the same
 // target as over every point, so the force block's misfit is the same (the samples' own forces are the same at the
-// same points; the sums' order differs, rounding far below 1e-9 of a unit-norm block), while the mass and momentum
+// same points), to rounding: over every point v_n is the kernel's (real_t), over the candidates the host's J (double)
+// times the rate, and the force divides v_G2P - v_n, a small part of v, by dt, which amplifies the kernel's rounding
+// (float: 1.4e-9 measured; 100 eps of real_t allowed, 1e-9 at least), while the mass and momentum
 // blocks, whose targets the candidates stand in for, may differ. (Summed over the candidates alone, as before, the
 // force misfits differed by 0.04 here: 0.085 against 0.126.)
 TEST_F(RolloutBatchApi, GridForceTargetIsTheWholeBodysWhateverTheCandidates) {
@@ -231,7 +234,8 @@ TEST_F(RolloutBatchApi, GridForceTargetIsTheWholeBodysWhateverTheCandidates) {
   ASSERT_EQ(over_every.misfits.size(), 3u);
   ASSERT_EQ(over_fewer.misfits.size(), 3u);
   EXPECT_GT(over_every.misfits[2], 1e-6);  // not trivially fitted: the comparison means something
-  EXPECT_NEAR(over_fewer.misfits[2], over_every.misfits[2], 1e-9);
+  EXPECT_NEAR(over_fewer.misfits[2], over_every.misfits[2],
+              std::max(1e-9, 100 * double(std::numeric_limits<real_t>::epsilon())));
 }
 
 // The Galerkin step's time step stays within its reduced dynamics' bound (1 / omega, omega the highest frequency over
