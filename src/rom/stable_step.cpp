@@ -50,9 +50,7 @@ double impl::reduced_highest_frequency(const Model& model, const Scene& scene, c
   const auto cases = trained_cases(model, scene, 8, indices);
   RomSettings probing = settings;
   probing.end_time = 0;  // the training runs' horizon
-  HyperReduction unbounded = reduction;
-  unbounded.stable_time_step = 0;
-  const auto stepper = create_stepper(model, scene.source_path, scene.design.names, cases, probing, unbounded);
+  const auto stepper = create_stepper(model, scene.source_path, scene.design.names, cases, probing, reduction);
   // Central differences in each latent coordinate, a step of 1e-4 of the coordinate's spread over the training codes
   std::vector<double> h(r, 0.0);
   for (std::size_t k = 0; k < r; ++k) {

@@ -8,6 +8,8 @@
 #include <limits>
 #include <vector>
 
+#include "core/math/cholesky.hpp"
+
 namespace mpmrom::dense {
 
 // Eigen-decomposition of a small symmetric matrix (n x n, row-major) by cyclic Jacobi rotations: A becomes diagonal
@@ -49,18 +51,8 @@ inline void symmetric_jacobi(std::vector<double>& A, std::vector<double>& V, int
 // The largest lambda of K v = lambda M v (r x r row-major; K's symmetric part is taken, M must be positive definite):
 // the eigenvalues of L^-1 K L^-T with M = L L^T. -infinity when M is not positive definite.
 inline double largest_generalised_eigenvalue(std::vector<double> K, std::vector<double> M, int r) {
-  // L^-1 K L^-T with M = L L^T, by forward substitution on the rows, then on the columns
-  for (int j = 0; j < r; ++j) {
-    double d = M[j * r + j];
-    for (int k = 0; k < j; ++k) d -= M[j * r + k] * M[j * r + k];
-    if (!(d > 0)) return -std::numeric_limits<double>::infinity();
-    M[j * r + j] = std::sqrt(d);
-    for (int i = j + 1; i < r; ++i) {
-      double s = M[i * r + j];
-      for (int k = 0; k < j; ++k) s -= M[i * r + k] * M[j * r + k];
-      M[i * r + j] = s / M[j * r + j];
-    }
-  }
+  // L^-1 K L^-T with M = L L^T, by forward substitution on the columns, then on the rows
+  if (!SerialCholesky(M.data(), r, r)) return -std::numeric_limits<double>::infinity();
   const auto solve_lower = [&](double* column, int stride) {  // column <- L^-1 column
     for (int i = 0; i < r; ++i) {
       double s = column[i * stride];
