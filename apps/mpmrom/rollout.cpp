@@ -28,7 +28,7 @@ struct Options {
   // "auto": the method's default (rom_defaults).
   std::string rom_method = "point", rom_selection = "auto", rom_projection = "velocity", rom_weights = "auto",
               cubature_snapshots = "auto", cubature_target = "auto", galerkin_strain = "auto", params_path, rom_path,
-              decode_mode = "none";
+              decode_mode = "none", reduction_path;
   std::vector<std::string> rom_data;
   double decode_spacing = 0;
   bool rollout_json = false;
@@ -158,10 +158,14 @@ int run(Options o, const Context& context) {
   mpmrom::TrainingData data;
   if (!o.rom_data.empty()) data = mpmrom::load_training_data(o.rom_data);
   const auto offline_start = mpmrom::SteadyClock::now();
-  const auto reduction = mpmrom::prepare_hyper_reduction(
-      model, scene, o.rom_settings, o.rom_data.empty() ? nullptr : &data, [quiet](const std::string& line) {
-        if (!quiet) std::cerr << "mpmrom rollout: " << line << "\n";
-      });
+  const auto reduction =
+      o.reduction_path.empty()
+          ? mpmrom::prepare_hyper_reduction(model, scene, o.rom_settings, o.rom_data.empty() ? nullptr : &data,
+                                            [quiet](const std::string& line) {
+                                              if (!quiet) std::cerr << "mpmrom rollout: " << line << "\n";
+                                            })
+          : mpmrom::reduction_from_rom(mpmrom::load_rom(o.reduction_path), o.reduction_path, model, scene,
+                                       o.rom_settings);
   const double offline_seconds = mpmrom::seconds_since(offline_start);
   if (!quiet)
     std::cerr << "mpmrom rollout: " << cases.size() << " rollout(s)"
@@ -190,6 +194,8 @@ int run(Options o, const Context& context) {
   file.scene_text = scene.source_text;
   file.settings = o.rom_settings.to_json();
   file.hyper_reduction = reduction.summary();
+  if (!o.reduction_path.empty())  // where its sets come from: the fits' misfits and cost are that file's
+    file.hyper_reduction["reused_from"] = std::filesystem::absolute(o.reduction_path).string();
   file.samples = reduction.samples;
   file.sets = reduction;
   file.timing = rollout_timing(result, cases.size());
@@ -237,6 +243,12 @@ void add_rollout(CLI::App& app, Commands& commands) {
                 "point's; the model's stored set, or fitted to the reduced model's motion), greedy (from the model's "
                 "stored ranking, or refitted to --data), cubature (ECSW's active set), region or random; auto: "
                 "greedy-projection, cubature with --method galerkin");
+  command
+      ->add_option("--reduction", o->reduction_path,
+                   "An earlier ROM.h5 of this model, scene and settings whose samples, weights and sets to reuse "
+                   "instead of fitting them again (they may differ in --end-time, --energy-growth and a --cfl the "
+                   "fits do not see)")
+      ->check(CLI::ExistingFile);
   command->add_option("--data", o->rom_data,
                       "Full-order training runs (sweep directory) to refit --selection greedy to");
   add_defaulted(command, "--seed", o->rom_settings.seed, "Seed of --selection random");

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <stdexcept>
+#include <string>
 #include <type_traits>
 
 #include "io/atomic_file.hpp"
@@ -345,6 +347,43 @@ RomFile load_rom(const std::string& path) {
     rom.decoded_F = impl::read_checked(path, decoded.dataset("F"), {B, frames, n, 3, 3}, "");
   }
   return rom;
+}
+
+// A settings key as its command-line flag spells it.
+std::string flag_name(std::string key) {
+  std::replace(key.begin(), key.end(), '_', '-');
+  return key;
+}
+
+HyperReduction reduction_from_rom(const RomFile& rom, const std::string& path, const Model& model, const Scene& scene,
+                                  const RomSettings& settings) {
+  const auto refuse = [&path](const std::string& what) {
+    throw std::runtime_error(path + ": its hyper-reduction is not this rollout's: " + what);
+  };
+  if (rom.model_checksum != model_checksum(model)) refuse("it ran another model (checksum differs)");
+  if (rom.scene_text != scene.source_text) refuse("it ran another scene (the scene's text differs)");
+  if (rom.hyper_reduction.value("samples", std::size_t(0)) != rom.samples.size() ||
+      (rom.sets.source_points.empty() && rom.sets.quadrature_weight.empty() && settings.method != RomMethod::Galerkin))
+    refuse("the file holds no hyper-reduction sets (written before they were stored, or incomplete)");
+  for (const int p : rom.samples)
+    if (std::size_t(p) >= model.num_points()) refuse("a sample is not a point of the model");
+  // The CFL number of the offline fits (cubature_snapshots): the Galerkin step's are at most the scene's.
+  const auto fitted_cfl = [&](const nlohmann::json& json) {
+    const double cfl = json.value("cfl", 0.0) > 0 ? json.value("cfl", 0.0) : scene.cfl;
+    return json.value("method", std::string()) == "galerkin" ? std::min(cfl, scene.cfl) : cfl;
+  };
+  nlohmann::json own = settings.to_json(), stored = rom.settings;
+  if (fitted_cfl(own) != fitted_cfl(stored)) refuse("its fits ran at another time step (--cfl)");
+  for (const char* free : {"end_time", "energy_growth", "cfl"}) own.erase(free), stored.erase(free);
+  for (const auto& [key, value] : own.items())
+    if (!stored.contains(key) || stored[key] != value)
+      refuse("--" + flag_name(key) + " differs (" + (stored.contains(key) ? stored[key].dump() : "absent") +
+             " there, " + value.dump() + " here)");
+  HyperReduction reduction = rom.sets;
+  reduction.samples = rom.samples;
+  reduction.weight_misfits = rom.hyper_reduction.value("weight_misfits", std::vector<double>());
+  reduction.weight_misfits_held_out = rom.hyper_reduction.value("weight_misfits_held_out", std::vector<double>());
+  return reduction;
 }
 
 }  // namespace mpmrom

@@ -42,4 +42,11 @@ void save_rom(const std::string& path, const RomFile& rom);
 // Reads and checks everything (format, version, completeness, shapes, finite values); one-line errors.
 RomFile load_rom(const std::string& path);
 
+// The hyper-reduction rom (read from path) ran with, for rollouts of the same model, scene and settings: what the
+// offline fits cost (minutes to hours on a large body) is paid once. Settings may differ in the horizon and the
+// energy detector only, and in the CFL number where the fits do not see it (the Galerkin step fits at the scene's step
+// when the rollout's is longer). Throws std::runtime_error naming what differs.
+HyperReduction reduction_from_rom(const RomFile& rom, const std::string& path, const Model& model, const Scene& scene,
+                                  const RomSettings& settings);
+
 }  // namespace mpmrom

@@ -251,5 +251,52 @@ TEST_F(Resume, ResumingARolloutFromAnotherBatchIsRefused) {
   EXPECT_TRUE(fs::exists(rom));
 }
 
+// A rollout that reuses an earlier one's hyper-reduction (--reduction) repeats it bit for bit without fitting it
+// again, over another horizon too; settings the fits depend on, or another model, are refused with nothing written.
+TEST_F(Resume, RolloutReusingAnEarlierReductionRepeatsIt) {
+  const fs::path sweep = dir_ / "sweep";
+  ASSERT_EQ(run({"sweep", scene_, "--out", sweep.string()}), 0);
+  const std::string model = (dir_ / "model.h5").string(), other_model = (dir_ / "other.h5").string();
+  for (const auto& [path, epochs] : {std::pair{model, "10"}, std::pair{other_model, "11"}})
+    ASSERT_EQ(run({"train", sweep.string(), "--out", path, "--latent", "2", "--width", "8", "--depth", "3", "--epochs",
+                   epochs}),
+              0);
+  const std::string fitted = (dir_ / "fitted.h5").string(), reused = (dir_ / "reused.h5").string();
+  const std::vector<std::string> galerkin{"--method", "galerkin", "--samples", "6", "--energy-growth", "0"};
+  auto rollout = [&](const std::string& with_model, const std::string& out, std::vector<std::string> more) {
+    std::vector<std::string> args{"rollout", with_model, scene_, "--out", out};
+    args.insert(args.end(), galerkin.begin(), galerkin.end());
+    args.insert(args.end(), more.begin(), more.end());
+    return run(args);
+  };
+  ASSERT_EQ(rollout(model, fitted, {}), 0);
+  ASSERT_EQ(rollout(model, reused, {"--reduction", fitted}), 0);
+  const RomFile a = load_rom(fitted), b = load_rom(reused);
+  EXPECT_EQ(a.samples, b.samples);
+  EXPECT_EQ(a.sets.weights, b.sets.weights);
+  EXPECT_EQ(a.sets.stable_time_step, b.sets.stable_time_step);
+  EXPECT_EQ(a.result.xhat, b.result.xhat);  // the same step from the same sets
+  EXPECT_EQ(b.hyper_reduction.value("reused_from", std::string()), fs::absolute(fitted).string());
+  ASSERT_EQ(rollout(model, reused, {"--reduction", fitted, "--end-time", "0.2"}), 0);
+  // The first frames of the same rollouts, to round-off: the shorter horizon's output times (end_time frame /
+  // outputs) can differ from the longer one's by an ulp, and so the steps; 1e3 eps covers that over its 40 steps.
+  const RomFile shorter = load_rom(reused);
+  const std::size_t frames = shorter.result.times.size(), r = std::size_t(a.result.latent_dim);
+  ASSERT_LT(frames, a.result.times.size());
+  const std::size_t B = a.result.outcomes.size(), F = a.result.times.size();
+  double scale = 0, worst = 0;
+  for (std::size_t b = 0; b < B; ++b)
+    for (std::size_t i = 0; i < frames * r; ++i) {
+      const double x = a.result.xhat[b * F * r + i], y = shorter.result.xhat[b * frames * r + i];
+      scale = std::max(scale, std::fabs(x));
+      worst = std::max(worst, std::fabs(x - y));
+    }
+  EXPECT_LE(worst, 1e3 * std::numeric_limits<real_t>::epsilon() * scale);
+  const std::string refused = (dir_ / "refused.h5").string();
+  EXPECT_EQ(rollout(model, refused, {"--reduction", fitted, "--galerkin-strain", "continuum"}), 1);
+  EXPECT_EQ(rollout(other_model, refused, {"--reduction", fitted}), 1);
+  EXPECT_FALSE(fs::exists(refused));
+}
+
 }  // namespace
 }  // namespace mpmrom::test
