@@ -62,8 +62,10 @@ case $verb in
       study_record "$stem" "$name" "$path" "$flags"
       method=$(python3 -c 'import json, sys; print(json.load(open(sys.argv[1]))["settings"]["method"])' \
         "$out/$stem.rollout.json")
+      # the binary's commit, not the checkout's: it may have moved during a long run
+      commit=$(python3 -c 'import json, sys; print(json.load(open(sys.argv[1]))["commit"])' "$out/$stem.study.json")
       python3 "$here/scripts/rom_issue_record.py" "$out/$stem.study.json" "$out/$stem.record.json" \
-        "$(basename "$scene" .toml)" "$method" "$(git -C "$here" rev-parse --short HEAD)" >&2
+        "$(basename "$scene" .toml)" "$method" "$commit" >&2
       echo "rollout $stem: $((SECONDS - start)) s"
     done
     ;;
