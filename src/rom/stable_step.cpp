@@ -65,10 +65,8 @@ double impl::reduced_highest_frequency(const Model& model, const Scene& scene, c
   double omega2 = 0;
   BatchState state = stepper->state();
   std::vector<double> force, mass, plus, minus, K(r * r);
-  // At most max_frames inner output frames a run, spread evenly: each costs 2 r + 1 sub-steps of the batch
-  constexpr int max_frames = 8;
-  const int inner = stepper->frames() - 2, stride = std::max(1, (inner + max_frames - 1) / max_frames);
-  for (int f = 1 + (inner - 1) % stride / 2; f + 1 < stepper->frames(); f += stride) {
+  // The snapshots' 8 frames a run: each costs 2 r + 1 sub-steps of the batch
+  for (const int f : inner_frames(stepper->frames(), 8)) {
     state.frame = f;
     training_state(model, indices, f, stepper->frames(), state.xhat, state.xhatdot);
     reduced_terms(*stepper, state, w, wf, force, &mass);

@@ -45,6 +45,8 @@ SnapshotStream snapshot_stream(const Model& model, const CubatureSnapshots& snap
 // when the model holds none.
 std::vector<RolloutCase> trained_cases(const Model& model, const Scene& scene, std::size_t max_rollouts,
                                        std::vector<int>& indices);
+// At most max_frames of the inner output frames 1 .. frames - 2, spread evenly: the offline probes' states.
+std::vector<int> inner_frames(int frames, int max_frames);
 // The model's training state at inner output frame `frame` of each of the design runs `indices` (the scene has
 // `frames` output frames): xhat the run's code, xhatdot the central difference of its codes (training's rate), each
 // (runs, r). Throws when the model holds another number of codes of a run.
