@@ -1,11 +1,11 @@
 // What a rollout's settings ask of the hyper-reduction, in one place for the CLI, the studies and the deployment API:
 // the samples, their precomputed sets and their weights (docs/rom.md "Sample selection", "Sample weights").
-#include <chrono>
 #include <cstdio>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
+#include "core/timing.hpp"
 #include "mpmrom/rom.hpp"
 #include "rom/detail/stable_step.hpp"
 
@@ -117,11 +117,7 @@ HyperReduction fitted_reduction(const Model& model, const Scene& scene, const Ro
 HyperReduction prepare_hyper_reduction(const Model& model, const Scene& scene, const RomSettings& settings,
                                        const TrainingData* data, const std::function<void(const std::string&)>& log,
                                        const SelectorSource& selector) {
-  using Clock = std::chrono::steady_clock;
-  const auto seconds_since = [](Clock::time_point start) {
-    return std::chrono::duration<double>(Clock::now() - start).count();
-  };
-  const Clock::time_point start = Clock::now();
+  const auto start = SteadyClock::now();
   HyperReduction reduction = fitted_reduction(model, scene, settings, data, log, selector);
   if (log && settings.samples > 0) {
     char line[64];
@@ -130,7 +126,7 @@ HyperReduction prepare_hyper_reduction(const Model& model, const Scene& scene, c
   }
   if (settings.method != RomMethod::Galerkin) return reduction;
   // Symplectic Euler is stable below 2 / omega; half of it leaves room for states between the training states.
-  const Clock::time_point bound_start = Clock::now();
+  const auto bound_start = SteadyClock::now();
   const double omega = impl::reduced_highest_frequency(model, scene, settings, reduction);
   if (omega > 0) reduction.stable_time_step = 1 / omega;
   if (log) {

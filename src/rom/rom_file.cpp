@@ -202,6 +202,12 @@ std::vector<RolloutOutcome> read_outcomes(const std::string& path, const hdf5::G
   return outcomes;
 }
 
+// A settings key as its command-line flag spells it.
+std::string flag_name(std::string key) {
+  std::replace(key.begin(), key.end(), '_', '-');
+  return key;
+}
+
 }  // namespace
 
 std::uint64_t model_checksum(const Model& model) {
@@ -347,12 +353,6 @@ RomFile load_rom(const std::string& path) {
     rom.decoded_F = impl::read_checked(path, decoded.dataset("F"), {B, frames, n, 3, 3}, "");
   }
   return rom;
-}
-
-// A settings key as its command-line flag spells it.
-std::string flag_name(std::string key) {
-  std::replace(key.begin(), key.end(), '_', '-');
-  return key;
 }
 
 HyperReduction reduction_from_rom(const RomFile& rom, const std::string& path, const Model& model, const Scene& scene,

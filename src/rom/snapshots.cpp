@@ -226,8 +226,7 @@ SnapshotStream training_states(const Model& model, const std::string& scene_path
     auto stepper = snapshot_stepper(model, scene_path, scene, settings, cases, rows);
     auto grid = grid_target_stepper(model, scene_path, scene, settings, cases, every_point(model));
     impl::BatchState state = stepper->state();
-    // 8 frames a run: at 10^5 a fourth of the set-up of all 33, and the fit no worse (docs/rom.md "Sample weights")
-    for (const int f : impl::inner_frames(stepper->frames(), 8)) {
+    for (const int f : impl::inner_frames(stepper->frames(), impl::max_state_frames)) {
       state.frame = f;
       impl::training_state(model, indices, f, stepper->frames(), state.xhat, state.xhatdot);
       if (grid) {

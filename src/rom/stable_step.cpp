@@ -65,8 +65,8 @@ double impl::reduced_highest_frequency(const Model& model, const Scene& scene, c
   double omega2 = 0;
   BatchState state = stepper->state();
   std::vector<double> force, mass, plus, minus, K(r * r);
-  // The snapshots' 8 frames a run: each costs 2 r + 1 sub-steps of the batch
-  for (const int f : inner_frames(stepper->frames(), 8)) {
+  // The snapshots' frames: each costs 2 r + 1 sub-steps of the batch
+  for (const int f : inner_frames(stepper->frames(), max_state_frames)) {
     state.frame = f;
     training_state(model, indices, f, stepper->frames(), state.xhat, state.xhatdot);
     reduced_terms(*stepper, state, w, wf, force, &mass);
