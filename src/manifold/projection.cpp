@@ -63,27 +63,81 @@ std::vector<double> closest_training_codes(const Model& model, const Snapshot& r
   return codes;
 }
 
+// The Levenberg-Marquardt sums of every frame, on the device: entry e of frame f summed over one block of points
+// (upper triangle of J^T J, then J^T (g - x), then |g - x|^2), each thread one (frame, block, entry), so that the sums
+// do not depend on the backend's scheduling; the host adds the blocks in order. With J empty, the misfit alone.
+using Positions = Kokkos::View<double***, Kokkos::LayoutRight, MemorySpace>;  // the run's, in double whatever T
+
+struct MisfitSums {
+  static constexpr int blocks = 64;
+  Cube g;
+  Positions x;
+  Quad J;
+  Kokkos::View<double***, Kokkos::LayoutRight, MemorySpace> partial;  // (frames, blocks, entries)
+  int P, r, entries;
+
+  static int entries_of(int r) { return r * (r + 1) / 2 + r + 1; }
+
+  KOKKOS_FUNCTION void operator()(const long item) const {
+    const int e = int(item % entries), block = int(item / entries % blocks), f = int(item / entries / blocks);
+    const int begin = int(long(P) * block / blocks), end = int(long(P) * (block + 1) / blocks);
+    int a = 0, b = e;  // (a, b) of an upper-triangle entry, row by row
+    while (a < r && b >= r - a) b -= r - a++;
+    b += a;
+    double sum = 0;
+    for (int p = begin; p < end; ++p)
+      for (int k = 0; k < 3; ++k) {
+        const double residual = double(g(f, p, k)) - x(f, p, k);
+        if (a < r)
+          sum += double(J(f, p, k, a)) * double(J(f, p, k, b));
+        else if (e < entries - 1)
+          sum += double(J(f, p, k, e - (entries - 1 - r))) * residual;
+        else
+          sum += residual * residual;
+      }
+    partial(f, block, e) = sum;
+  }
+};
+
+// Per frame: J^T J (r x r, full), J^T (g - x) and the misfit |g - x|^2 of the positions g decoded at the codes.
+struct NormalEquations {
+  std::vector<double> JtJ, Jtr, cost;
+};
+
+NormalEquations misfit_sums(const Cube& g, const Quad& J, const Positions& x, int frames, int P, int r) {
+  const bool with_jacobian = J.extent(0) > 0;
+  const int entries = with_jacobian ? MisfitSums::entries_of(r) : 1;
+  MisfitSums sums{g, x, J, {}, P, with_jacobian ? r : 0, entries};
+  sums.partial = decltype(sums.partial)("mpmrom::project::partial", frames, MisfitSums::blocks, entries);
+  Kokkos::parallel_for("mpmrom::project::misfit_sums",
+                       Kokkos::RangePolicy<ExecutionSpace>(0, long(frames) * MisfitSums::blocks * entries), sums);
+  const auto partial = download(sums.partial);
+  NormalEquations out{std::vector<double>(std::size_t(frames) * r * r), std::vector<double>(std::size_t(frames) * r),
+                      std::vector<double>(frames)};
+  for (int f = 0; f < frames; ++f)
+    for (int block = 0; block < MisfitSums::blocks; ++block) {
+      const double* row = &partial[(std::size_t(f) * MisfitSums::blocks + block) * entries];
+      out.cost[f] += row[entries - 1];
+      if (!with_jacobian) continue;
+      for (int a = 0, e = 0; a < r; ++a)
+        for (int b = a; b < r; ++b, ++e) out.JtJ[(std::size_t(f) * r + a) * r + b] += row[e];
+      for (int a = 0; a < r; ++a) out.Jtr[std::size_t(f) * r + a] += row[entries - 1 - r + a];
+    }
+  for (int f = 0; f < frames && with_jacobian; ++f)
+    for (int a = 0; a < r; ++a)
+      for (int b = 0; b < a; ++b) out.JtJ[(std::size_t(f) * r + a) * r + b] = out.JtJ[(std::size_t(f) * r + b) * r + a];
+  return out;
+}
+
 // Frame f's Levenberg-Marquardt step, (J^T J + mu diag(J^T J)) delta = -J^T (g - x), added to its code in trial;
 // false, with trial unchanged, where the damped matrix is not positive definite.
-bool add_damped_step(const std::vector<double>& g_host, const std::vector<double>& J_host, const Snapshot& run, int f,
-                     int r, double mu, std::vector<double>& trial) {
-  const int P = int(run.num_points);
-  std::vector<double> JtJ(r * r, 0.0), Jtr(r, 0.0);
-  for (int p = 0; p < P; ++p)
-    for (int k = 0; k < 3; ++k) {
-      const std::size_t row = (std::size_t(f) * P + p) * 3 + k;
-      const double res = g_host[row] - run.x[row];
-      const double* Jrow = &J_host[row * r];
-      for (int a = 0; a < r; ++a) {
-        Jtr[a] += Jrow[a] * res;
-        for (int b = 0; b < r; ++b) JtJ[a * r + b] += Jrow[a] * Jrow[b];
-      }
-    }
-  std::vector<double> A = JtJ, delta(r);
+bool add_damped_step(const NormalEquations& normal, int f, int r, double mu, std::vector<double>& trial) {
+  const double* JtJ = &normal.JtJ[std::size_t(f) * r * r];
+  std::vector<double> A(JtJ, JtJ + r * r), delta(r);
   double trace = 0;
   for (int a = 0; a < r; ++a) trace += JtJ[a * r + a];
   for (int a = 0; a < r; ++a) A[a * r + a] += mu * JtJ[a * r + a] + 1e-14 * trace;
-  for (int a = 0; a < r; ++a) delta[a] = -Jtr[a];
+  for (int a = 0; a < r; ++a) delta[a] = -normal.Jtr[std::size_t(f) * r + a];
   if (!dense::SerialCholesky(A.data(), r, r)) return false;
   dense::SerialCholeskySolve(A.data(), r, r, delta.data());
   for (int a = 0; a < r; ++a) trial[f * r + a] += delta[a];
@@ -114,14 +168,7 @@ std::vector<double> project_codes(const Model& model, const Snapshot& run) {
     for (std::size_t i = 0; i < values.size(); ++i) host_codes.data()[i] = T(values[i]);
     Kokkos::deep_copy(device_codes, host_codes);
   };
-  const auto cost_of = [&](const std::vector<double>& positions, int f) {
-    double cost = 0;
-    for (int i = 0; i < P * 3; ++i) {
-      const double e = positions[std::size_t(f) * P * 3 + i] - run.x[std::size_t(f) * P * 3 + i];
-      cost += e * e;
-    }
-    return cost;
-  };
+  const Positions x = upload<Positions>("mpmrom::project::x", run.x, frames, P, 3);
   std::vector<double> mu(frames, 1e-3), cost(frames);
   std::vector<bool> converged(frames, false);
   for (int iteration = 0; iteration < 100; ++iteration) {
@@ -129,22 +176,21 @@ std::vector<double> project_codes(const Model& model, const Snapshot& run) {
     nn::evaluate_with_jacobians(space, mlp, nn::PointsView<T, MemorySpace>(X),
                                 nn::CodesView<T, MemorySpace>(device_codes), nn::CodesView<T, MemorySpace>(), g, F, J,
                                 velocity);
-    const auto g_host = download(g);
-    const auto J_host = download(J);
+    const NormalEquations normal = misfit_sums(g, J, x, frames, P, r);
     std::vector<double> trial = codes;
     for (int f = 0; f < frames; ++f) {
-      cost[f] = cost_of(g_host, f);
+      cost[f] = normal.cost[f];
       if (converged[f]) continue;
-      if (!add_damped_step(g_host, J_host, run, f, r, mu[f], trial)) mu[f] *= 10;
+      if (!add_damped_step(normal, f, r, mu[f], trial)) mu[f] *= 10;
     }
     // Accept each frame's step if it lowers that frame's misfit, else damp more.
     set_codes(trial);
     nn::evaluate(space, mlp, nn::PointsView<T, MemorySpace>(X), nn::CodesView<T, MemorySpace>(device_codes), g);
-    const auto g_trial = download(g);
+    const std::vector<double> trial_cost = misfit_sums(g, Quad(), x, frames, P, r).cost;
     bool all_done = true;
     for (int f = 0; f < frames; ++f) {
       if (converged[f]) continue;
-      const double new_cost = cost_of(g_trial, f);
+      const double new_cost = trial_cost[f];
       if (new_cost < cost[f]) {
         // converged once a step gains less than a part in 1e6 of the misfit (rounding level in float)
         if (cost[f] - new_cost <= 1e-6 * cost[f]) converged[f] = true;

@@ -30,20 +30,18 @@ void mean_and_scale(const std::vector<double>& values, double mean[3], double sc
   }
 }
 
-// C F of every point of every frame (row-major 3 x 3), the rate of F that the affine term asks Fdot to match.
-void append_affine_targets(const Snapshot& run, std::vector<double>& CF) {
-  const std::size_t n = run.num_frames * run.num_points;
-  if (run.C.size() != 9 * n) throw std::runtime_error("--lambda-affine needs the runs' APIC matrices C (not loaded)");
-  for (std::size_t e = 0; e < n; ++e)
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j) {
-        double sum = 0;
-        for (int k = 0; k < 3; ++k) sum += run.C[9 * e + 3 * i + k] * run.F[9 * e + 3 * k + j];
-        CF.push_back(sum);
-      }
-}
-
 }  // namespace
+
+void TrainingTargets::CF(std::size_t s, std::size_t p, double out[9]) const {
+  const std::size_t e = snapshots[s].frame * points + p;
+  const double *C = snapshots[s].run->C.data() + 9 * e, *F = snapshots[s].run->F.data() + 9 * e;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) {
+      double sum = 0;
+      for (int k = 0; k < 3; ++k) sum += C[3 * i + k] * F[3 * k + j];
+      out[3 * i + j] = sum;
+    }
+}
 
 std::uint64_t epoch_seed(std::uint64_t seed, std::uint64_t epoch) {
   return splitmix64_mix(seed * 0x9E3779B97F4A7C15ull + epoch + 0x632BE59BD9B4E019ull);
@@ -69,11 +67,12 @@ Model start_model(const TrainingData& data, const TrainingSettings& settings, Tr
       model.code_run.push_back(std::int64_t(run));
       model.code_time.push_back(runs[run].time[f]);
     }
-    targets.x.insert(targets.x.end(), runs[run].x.begin(), runs[run].x.end());
-    targets.F.insert(targets.F.end(), runs[run].F.begin(), runs[run].F.end());
-    targets.v.insert(targets.v.end(), runs[run].v.begin(), runs[run].v.end());
-    if (settings.lambda_affine > 0) append_affine_targets(runs[run], targets.CF);
+    if (settings.lambda_affine > 0 && runs[run].C.size() != runs[run].F.size())
+      throw std::runtime_error("--lambda-affine needs the runs' APIC matrices C (not loaded)");
+    for (std::size_t f = 0; f < runs[run].num_frames; ++f) targets.snapshots.push_back({&runs[run], f});
   }
+  targets.points = first.num_points;
+  targets.affine = settings.lambda_affine > 0;
   return model;
 }
 
@@ -92,28 +91,31 @@ PointSplit split_points(const TrainingSettings& settings, int P) {
 }
 
 void set_scales(Model& model, const TrainingTargets& targets, const std::vector<int>& training_points) {
-  const int S = int(model.code_time.size()), P = int(model.num_points());
-  const std::vector<double>&x = targets.x, &F = targets.F, &v = targets.v;
+  const int S = int(model.code_time.size());
   std::vector<double> displacement;
   displacement.reserve(std::size_t(S) * training_points.size() * 3);
   double sum_u2 = 0, sum_strain2 = 0, sum_v2 = 0, sum_CF2 = 0;
-  for (int s = 0; s < S; ++s)
+  for (int s = 0; s < S; ++s) {
+    const double *x = targets.x(std::size_t(s)), *F = targets.F(std::size_t(s)), *v = targets.v(std::size_t(s));
     for (const int p : training_points) {
-      if (!targets.CF.empty())
-        for (int i = 0; i < 9; ++i)
-          sum_CF2 += targets.CF[(std::size_t(s) * P + p) * 9 + i] * targets.CF[(std::size_t(s) * P + p) * 9 + i];
+      if (targets.affine) {
+        double CF[9];
+        targets.CF(std::size_t(s), std::size_t(p), CF);
+        for (int i = 0; i < 9; ++i) sum_CF2 += CF[i] * CF[i];
+      }
       for (int d = 0; d < 3; ++d) {
-        const double u = x[(std::size_t(s) * P + p) * 3 + d] - model.X[3 * p + d];
+        const double u = x[std::size_t(p) * 3 + d] - model.X[3 * p + d];
         displacement.push_back(u);
         sum_u2 += u * u;
-        const double vel = v[(std::size_t(s) * P + p) * 3 + d];
+        const double vel = v[std::size_t(p) * 3 + d];
         sum_v2 += vel * vel;
       }
       for (int i = 0; i < 9; ++i) {
-        const double e = F[(std::size_t(s) * P + p) * 9 + i] - (i % 4 == 0 ? 1.0 : 0.0);
+        const double e = F[std::size_t(p) * 9 + i] - (i % 4 == 0 ? 1.0 : 0.0);
         sum_strain2 += e * e;
       }
     }
+  }
   const double samples = double(S) * double(training_points.size());
   if (!(sum_u2 > 0)) throw std::runtime_error("the training runs do not move: nothing to learn");
   model.loss_scales[0] = std::sqrt(sum_u2 / (3 * samples));
@@ -126,7 +128,7 @@ void set_scales(Model& model, const TrainingTargets& targets, const std::vector<
 
 void set_initial_parameters(Model& model, const TrainingSettings& settings, const TrainingTargets& targets,
                             const std::vector<int>& training_points) {
-  const int S = int(model.code_time.size()), P = int(model.num_points());
+  const int S = int(model.code_time.size());
   const nn::MlpLayout layout = model.layout();
   std::mt19937_64 init_rng(epoch_seed(settings.seed, ~1ull));
   model.weights.assign(layout.num_params, 0.0);
@@ -144,7 +146,7 @@ void set_initial_parameters(Model& model, const TrainingSettings& settings, cons
     for (std::size_t i = 0; i < pca_points.size(); ++i)
       for (int d = 0; d < 3; ++d)
         rows[(std::size_t(s) * pca_points.size() + i) * 3 + d] =
-            targets.x[(std::size_t(s) * P + pca_points[i]) * 3 + d] - model.X[3 * pca_points[i] + d];
+            targets.x(std::size_t(s))[std::size_t(pca_points[i]) * 3 + d] - model.X[3 * pca_points[i] + d];
   model.codes = principal_coordinates(rows, S, pca_points.size() * 3, settings.latent_dim);
 }
 

@@ -14,11 +14,31 @@
 
 namespace mpmrom::impl {
 
-// The training snapshots, run after run, frame after frame: their targets (points, 3 or 9 values per snapshot) and
-// the stencil of their code rates.
+// The training snapshots, run after run, frame after frame: their targets (points, 3 or 9 values per snapshot), read
+// in place from the runs (a 10^6-point sweep holds tens of GB, a copy would double it), and the stencil of their code
+// rates. The runs must outlive it.
 struct TrainingTargets {
   RateStencil stencil;
-  std::vector<double> x, F, v, CF;  // CF: C F with APIC's C, only for lambda3 > 0
+  std::size_t points = 0;
+  bool affine = false;  // lambda3 > 0: the affine term's C F, made from the runs' C and F where it is read
+
+  struct Frame {
+    const Snapshot* run;
+    std::size_t frame;
+  };
+  std::vector<Frame> snapshots;
+
+  std::size_t size() const { return snapshots.size(); }
+  const double* x(std::size_t s) const { return field(snapshots[s].run->x, s, 3); }
+  const double* F(std::size_t s) const { return field(snapshots[s].run->F, s, 9); }
+  const double* v(std::size_t s) const { return field(snapshots[s].run->v, s, 3); }
+  // C F of point p of snapshot s (row-major 3 x 3), the rate of F that the affine term asks Fdot to match.
+  void CF(std::size_t s, std::size_t p, double out[9]) const;
+
+ private:
+  const double* field(const std::vector<double>& values, std::size_t s, std::size_t width) const {
+    return values.data() + snapshots[s].frame * points * width;
+  }
 };
 
 // Material points held out of training (to watch over-fitting) and those trained on, each sorted.

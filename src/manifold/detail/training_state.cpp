@@ -23,6 +23,22 @@ std::vector<int> monitor_points_of(const std::vector<int>& validation_points) {
   return monitor_points;
 }
 
+// This rank's snapshots of one target (width values a point) as a device cube, filled through one host mirror of the
+// build's precision: values(s, p) points at snapshot s's values at point p.
+template <class Values>
+Cube upload_snapshots(const std::string& label, const TrainingTargets& targets, const TrainingSizes& n, int width,
+                      const Values& values) {
+  Cube cube(label, n.num_owned, targets.points, width);
+  auto host = Kokkos::create_mirror_view(cube);
+  for (int i = 0; i < n.num_owned; ++i)
+    for (std::size_t p = 0; p < targets.points; ++p) {
+      const double* from = values(std::size_t(n.first_owned + i), p);
+      for (int k = 0; k < width; ++k) host(i, p, k) = T(from[k]);
+    }
+  Kokkos::deep_copy(cube, host);
+  return cube;
+}
+
 }  // namespace
 
 TrainingSizes sizes_of(const Model& model, const TrainingSettings& settings, const PointSplit& points,
@@ -44,7 +60,7 @@ TrainingSizes sizes_of(const Model& model, const TrainingSettings& settings, con
   return n;
 }
 
-DeviceState upload_state(const Model& model, const OptimizerState& optimizer, TrainingTargets& targets,
+DeviceState upload_state(const Model& model, const OptimizerState& optimizer, const TrainingTargets& targets,
                          const TrainingSettings& settings, const TrainingSizes& n) {
   const int P = int(model.num_points());
   DeviceState d;
@@ -63,19 +79,19 @@ DeviceState upload_state(const Model& model, const OptimizerState& optimizer, Tr
   d.table.rate_inv_dt = upload<Vector>("mpmrom::train::rate_inv_dt", targets.stencil.inv_dt, n.S);
 
   d.batch.X = upload<Matrix>("mpmrom::train::X", model.X, P, 3);
-  const auto owned_rows = [&](const std::vector<double>& all, std::size_t per_snapshot_values) {
-    return std::vector<double>(all.begin() + long(n.first_owned * per_snapshot_values),
-                               all.begin() + long((n.first_owned + n.num_owned) * per_snapshot_values));
-  };
-  d.batch.x = upload<Cube>("mpmrom::train::x", owned_rows(targets.x, std::size_t(P) * 3), n.num_owned, P, 3);
-  d.batch.F = upload<Cube>("mpmrom::train::F", owned_rows(targets.F, std::size_t(P) * 9), n.num_owned, P, 9);
-  d.batch.v = upload<Cube>("mpmrom::train::v", owned_rows(targets.v, std::size_t(P) * 3), n.num_owned, P, 3);
-  if (!targets.CF.empty())
-    d.batch.CF = upload<Cube>("mpmrom::train::CF", owned_rows(targets.CF, std::size_t(P) * 9), n.num_owned, P, 9);
-  targets.x.clear();
-  targets.F.clear();
-  targets.v.clear();
-  targets.CF.clear();
+  d.batch.x = upload_snapshots("mpmrom::train::x", targets, n, 3,
+                               [&](std::size_t s, std::size_t p) { return targets.x(s) + 3 * p; });
+  d.batch.F = upload_snapshots("mpmrom::train::F", targets, n, 9,
+                               [&](std::size_t s, std::size_t p) { return targets.F(s) + 9 * p; });
+  d.batch.v = upload_snapshots("mpmrom::train::v", targets, n, 3,
+                               [&](std::size_t s, std::size_t p) { return targets.v(s) + 3 * p; });
+  if (targets.affine) {
+    double CF[9];
+    d.batch.CF = upload_snapshots("mpmrom::train::CF", targets, n, 9, [&](std::size_t s, std::size_t p) {
+      targets.CF(s, p, CF);
+      return static_cast<const double*>(CF);
+    });
+  }
 
   d.weights.lambda_gradient = T(settings.lambda_gradient);
   d.weights.lambda_velocity = T(settings.lambda_velocity);

@@ -106,9 +106,8 @@ struct DeviceState {
   nn::Channels channels;
 };
 
-// Uploads the model's parameters, the optimizer's moments and this rank's share of the targets, which the host then
-// drops.
-DeviceState upload_state(const Model& model, const OptimizerState& optimizer, TrainingTargets& targets,
+// Uploads the model's parameters, the optimizer's moments and this rank's share of the targets.
+DeviceState upload_state(const Model& model, const OptimizerState& optimizer, const TrainingTargets& targets,
                          const TrainingSettings& settings, const TrainingSizes& n);
 
 // Host-side copies of the device state, for checkpoints and the final model.
