@@ -136,6 +136,8 @@ class BatchStepper final : public BatchStepperBase {
     samples_scratch_ = rom::SampleKinematics<Manifold, ExecutionSpace>::scratch_for(manifold_);
     sources_shape_ = rom::team_shape<ExecutionSpace>(long(B) * K, manifold_.team_lanes(), sources_scratch_);
     samples_shape_ = rom::team_shape<ExecutionSpace>(long(B) * S, manifold_.team_lanes(), samples_scratch_);
+    nodes_shape_ = rom::team_shape<ExecutionSpace>(long(B) * long(strain_.nodes.extent(0)), manifold_.team_lanes(),
+                                                   samples_scratch_);
     // On GPUs, a batch too small to give each of a quarter of the resident threads a node gathers across lanes;
     // the projection takes its rows across lanes.
     if (!host_space) {
@@ -304,6 +306,20 @@ class BatchStepper final : public BatchStepperBase {
         Samples{manifold_, samples_X_, xhat, xhatdot, positions, sample_J_, samples_shape_, samples_scratch_});
   }
 
+  // The grid strain's nodes: their displacements and dg/dxhat at xhat (GridStrainNodeKinematics).
+  void move_strain_nodes(const ExecutionSpace& space) {
+    const long items = long(B_) * long(strain_.nodes.extent(0));
+    if constexpr (host_space)
+      Kokkos::parallel_for("mpmrom::rom::grid_strain_nodes", Range(space, 0, items),
+                           rom::GridStrainNodeKinematics<Manifold, MemorySpace>{
+                               manifold_, strain_.nodes, xhat_, xhatdot_, strain_.u, strain_.dg, flags_});
+    else
+      Kokkos::parallel_for(
+          "mpmrom::rom::grid_strain_nodes", teams(space, items, nodes_shape_, nodes_shape_.threads, samples_scratch_),
+          rom::TeamGridStrainNodeKinematics<Manifold, ExecutionSpace>{
+              manifold_, strain_.nodes, xhat_, xhatdot_, strain_.u, strain_.dg, nodes_shape_, samples_scratch_});
+  }
+
   // Algorithms 1 and 2 up to the projection: sources, node velocities, the samples' velocities from the grid.
   void transfer(const ExecutionSpace& space, real_t t, real_t dt) {
     const int B = B_, S = S_, K = K_, I = I_;
@@ -359,16 +375,17 @@ class BatchStepper final : public BatchStepperBase {
   void substep(real_t t, real_t dt) {
     const ExecutionSpace space;
     const int B = B_, S = S_, r = latent_dim_;
-    if (galerkin_ && strain_.nodes.extent(0) > 0)
-      Kokkos::parallel_for("mpmrom::rom::grid_strain_nodes", Range(space, 0, long(B) * strain_.nodes.extent(0)),
-                           rom::GridStrainNodeKinematics<Manifold, MemorySpace>{
-                               manifold_, strain_.nodes, xhat_, xhatdot_, strain_.u, strain_.dg, flags_});
+    // On GPUs the grid strain's network runs on teams (one thread per item would run it alone); host builds keep
+    // one thread per item, its faster one-pass evaluation.
+    const bool strain_on_teams = !host_space && strain_.stencils.extent(0) > 0;
+    if (galerkin_ && strain_.nodes.extent(0) > 0) move_strain_nodes(space);
+    if (galerkin_ && strain_on_teams) sample_kinematics(space, xhat_, xhatdot_, sample_x_);
     if (galerkin_)
       Kokkos::parallel_reduce("mpmrom::rom::galerkin_terms", Range(space, 0, long(B) * S),
                               rom::GalerkinSampleTerms<Manifold, MemorySpace>{
                                   manifold_, samples_X_, xhat_, xhatdot_, loads_, material_, density_, t, sample_x_,
                                   sample_v_, sample_J_, sample_force_, flags_, strain_.stencils, strain_.u, strain_.dg,
-                                  grid_, settings_.galerkin_transfer ? dt : real_t(0)},
+                                  grid_, settings_.galerkin_transfer ? dt : real_t(0), strain_on_teams},
                               Kokkos::Max<real_t, MemorySpace>(fastest_sample_));
     else
       transfer(space, t, dt);
@@ -443,7 +460,7 @@ class BatchStepper final : public BatchStepperBase {
   rom::ProjectionGuard guard_;
   rom::NewtonSettings newton_;
   rom::TeamScratch sources_scratch_, samples_scratch_;
-  rom::TeamShape sources_shape_, samples_shape_;
+  rom::TeamShape sources_shape_, samples_shape_, nodes_shape_;
   bool gather_across_lanes_ = false;
   int projection_lanes_ = 1;
   real_t max_speed_ = 0;  // fastest sample at the end of the last frame, for the next frame's time step

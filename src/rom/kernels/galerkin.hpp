@@ -53,6 +53,42 @@ struct GridStrainNodeKinematics {
   }
 };
 
+// GridStrainNodeKinematics on teams (GPUs, where one thread per node runs the network alone): a team per
+// shape.threads (rollout, node) items, one a team thread, its lanes sharing the network, as SampleKinematics.
+template <class Manifold, class ExecutionSpace>
+struct TeamGridStrainNodeKinematics {
+  using MemorySpace = typename ExecutionSpace::memory_space;
+  using member_type = typename Kokkos::TeamPolicy<ExecutionSpace>::member_type;
+
+  Manifold manifold;
+  Kokkos::View<const real_t**, Kokkos::LayoutRight, MemorySpace> nodes;  // (nodes, 6): grid_strain_nodes' rows
+  BatchMatrix<MemorySpace> xhat, xhatdot;
+  BatchVectors<MemorySpace> node_u;     // out: (rollouts, nodes, 3)
+  BatchJacobians<MemorySpace> node_dg;  // out: (rollouts, nodes, 3, r)
+  TeamShape shape;
+  TeamScratch scratch;  // SampleKinematics::scratch_for's
+
+  KOKKOS_INLINE_FUNCTION void operator()(const member_type& member) const {
+    const int num_nodes = int(nodes.extent(0)), r = int(xhat.extent(1));
+    const long e = long(member.league_rank()) * shape.threads + member.team_rank();
+    const bool active = e < long(xhat.extent(0)) * num_nodes;
+    const int b = active ? int(e / num_nodes) : 0, i = active ? int(e % num_nodes) : 0;
+    real_t* base = scratch.base(member, shape);
+    const real_t* staged = manifold.team_stage(member, base);
+    real_t* own = scratch.thread_part(base, member.team_rank());
+    auto& kin = *reinterpret_cast<nn::PointKinematics<real_t>*>(own + (scratch.per_thread - kinematics_values));
+    const real_t Xbar[3] = {nodes(i, 0), nodes(i, 1), nodes(i, 2)};
+    manifold.team_kinematics(member, staged, own, active, Xbar, &xhat(b, 0), &xhatdot(b, 0), true, kin,
+                             active ? &node_dg(b, i, 0, 0) : nullptr);
+    member.team_barrier();
+    Kokkos::parallel_for(Kokkos::ThreadVectorRange(member, active ? 3 : 0), [&](const int a) {
+      const real_t free = nodes(i, 3 + a);
+      node_u(b, i, a) = free * (kin.g[a] - Xbar[a]);
+      for (int k = 0; k < r; ++k) node_dg(b, i, a, k) *= free;
+    });
+  }
+};
+
 template <class Manifold, class MemorySpace>
 struct GalerkinSampleTerms {
   Manifold manifold;
@@ -75,6 +111,9 @@ struct GalerkinSampleTerms {
   // With the grid strain: the sample's velocity gathered from its stencil's nodes as MPM's G2P gathers it, folded
   // into the force over dt (0: the manifold's velocity at the sample, no transfer).
   real_t transfer_dt = 0;
+  // With the grid strain: sample_x and sample_J already hold the samples' positions and dg/dxhat (SampleKinematics on
+  // teams, GPUs), else the network runs here.
+  bool kinematics_given = false;
 
   KOKKOS_INLINE_FUNCTION void operator()(const long e, real_t& max_speed) const {
     const int num_samples = int(X.extent(0)), r = int(xhat.extent(1));
@@ -86,7 +125,10 @@ struct GalerkinSampleTerms {
     const bool on_grid = stencils.extent(0) > 0;
     QuadraticStencil<real_t> stencil{};  // the grid strain's only
     if (on_grid) {                       // the sample's position, J and velocity J xhatdot; its own F is not needed
-      manifold.position_and_tangent(Xs, &xhat(b, 0), kin.g, &sample_J(b, s, 0, 0));
+      if (kinematics_given)
+        for (int d = 0; d < 3; ++d) kin.g[d] = sample_x(b, s, d);
+      else
+        manifold.position_and_tangent(Xs, &xhat(b, 0), kin.g, &sample_J(b, s, 0, 0));
       for (int d = 0; d < 3; ++d) {
         kin.v[d] = 0;
         for (int k = 0; k < r; ++k) kin.v[d] += sample_J(b, s, d, k) * xhatdot(b, k);
