@@ -73,14 +73,9 @@ struct TeamGridStrainNodeKinematics {
     const long e = long(member.league_rank()) * shape.threads + member.team_rank();
     const bool active = e < long(xhat.extent(0)) * num_nodes;
     const int b = active ? int(e / num_nodes) : 0, i = active ? int(e % num_nodes) : 0;
-    real_t* base = scratch.base(member, shape);
-    const real_t* staged = manifold.team_stage(member, base);
-    real_t* own = scratch.thread_part(base, member.team_rank());
-    auto& kin = *reinterpret_cast<nn::PointKinematics<real_t>*>(own + (scratch.per_thread - kinematics_values));
     const real_t Xbar[3] = {nodes(i, 0), nodes(i, 1), nodes(i, 2)};
-    manifold.team_kinematics(member, staged, own, active, Xbar, &xhat(b, 0), &xhatdot(b, 0), true, kin,
-                             active ? &node_dg(b, i, 0, 0) : nullptr);
-    member.team_barrier();
+    const auto& kin = team_point_kinematics(manifold, member, shape, scratch, active, Xbar, &xhat(b, 0), &xhatdot(b, 0),
+                                            active ? &node_dg(b, i, 0, 0) : nullptr);
     Kokkos::parallel_for(Kokkos::ThreadVectorRange(member, active ? 3 : 0), [&](const int a) {
       const real_t free = nodes(i, 3 + a);
       node_u(b, i, a) = free * (kin.g[a] - Xbar[a]);

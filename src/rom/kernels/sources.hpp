@@ -267,6 +267,21 @@ struct CheckInversions {
   }
 };
 
+// One point's kinematics a team thread, its lanes sharing the network (SampleKinematics' layout: scratch from
+// scratch_for, the kinematics in the thread's last kinematics_values); the team has synchronised on return.
+template <class Manifold, class Member>
+KOKKOS_INLINE_FUNCTION const nn::PointKinematics<real_t>& team_point_kinematics(
+    const Manifold& manifold, const Member& member, const TeamShape& shape, const TeamScratch& scratch, bool active,
+    const real_t X[3], const real_t* xhat, const real_t* xhatdot, real_t* dgdxhat) {
+  real_t* base = scratch.base(member, shape);
+  const real_t* staged = manifold.team_stage(member, base);
+  real_t* own = scratch.thread_part(base, member.team_rank());
+  auto& kin = *reinterpret_cast<nn::PointKinematics<real_t>*>(own + (scratch.per_thread - kinematics_values));
+  manifold.team_kinematics(member, staged, own, active, X, xhat, xhatdot, true, kin, dgdxhat);
+  member.team_barrier();
+  return kin;
+}
+
 // The sample material points (fixed reference positions) for the projection: Algorithm 2's step 6, and both
 // algorithms' re-projection at the trial state. Parallelism: a team per shape.threads (rollout, sample) items, one
 // a team thread, its lanes sharing the network (shape.rounds is not used).
@@ -295,14 +310,9 @@ struct SampleKinematics {
     const long e = long(member.league_rank()) * shape.threads + member.team_rank();
     const bool active = e < total;
     const int b = active ? int(e / num_samples) : 0, s = active ? int(e % num_samples) : 0;
-    real_t* base = scratch.base(member, shape);
-    const real_t* staged = manifold.team_stage(member, base);
-    real_t* own = scratch.thread_part(base, member.team_rank());
-    auto& kin = *reinterpret_cast<nn::PointKinematics<real_t>*>(own + (scratch.per_thread - kinematics_values));
     const real_t Xs[3] = {X(s, 0), X(s, 1), X(s, 2)};
-    manifold.team_kinematics(member, staged, own, active, Xs, &xhat(b, 0), &xhatdot(b, 0), true, kin,
-                             active ? &sample_J(b, s, 0, 0) : nullptr);
-    member.team_barrier();
+    const auto& kin = team_point_kinematics(manifold, member, shape, scratch, active, Xs, &xhat(b, 0), &xhatdot(b, 0),
+                                            active ? &sample_J(b, s, 0, 0) : nullptr);
     Kokkos::parallel_for(Kokkos::ThreadVectorRange(member, active ? 3 : 0),
                          [&](const int d) { sample_x(b, s, d) = kin.g[d]; });
   }
