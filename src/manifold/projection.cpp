@@ -87,13 +87,12 @@ struct MisfitSums {
     double sum = 0;
     for (int p = begin; p < end; ++p)
       for (int k = 0; k < 3; ++k) {
-        const double residual = double(g(f, p, k)) - x(f, p, k);
-        if (a < r)
+        if (a < r) {  // J^T J's entries read no positions
           sum += double(J(f, p, k, a)) * double(J(f, p, k, b));
-        else if (e < entries - 1)
-          sum += double(J(f, p, k, e - (entries - 1 - r))) * residual;
-        else
-          sum += residual * residual;
+          continue;
+        }
+        const double residual = double(g(f, p, k)) - x(f, p, k);
+        sum += e < entries - 1 ? double(J(f, p, k, e - (entries - 1 - r))) * residual : residual * residual;
       }
     partial(f, block, e) = sum;
   }
