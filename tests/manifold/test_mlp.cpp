@@ -5,7 +5,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <initializer_list>
 #include <random>
+#include <utility>
 #include <vector>
 
 #include "backends.hpp"
@@ -359,7 +361,8 @@ void check_gradient_is_deterministic() {
 
 // The team evaluation of the kinematics (one point per team thread, its lanes sharing the network) against the
 // one-thread one, for networks whose widths fill the lanes unevenly, with the weights staged in scratch or read from
-// memory, threads without a point and threads not asking for dg/dxhat in a team that does.
+// memory, threads without a point and threads not asking for dg/dxhat in a team that does; and its primal channel
+// alone (position_only: g and dg/dxhat, what the reduced model's samples and grid-strain nodes need).
 template <class ExecutionSpace>
 struct TeamKinematicsRun {
   using MemorySpace = typename ExecutionSpace::memory_space;
@@ -370,7 +373,7 @@ struct TeamKinematicsRun {
   Kokkos::View<const double**, Kokkos::LayoutRight, MemorySpace> X, xhat, xhatdot;  // per item
   Kokkos::View<double**, Kokkos::LayoutRight, MemorySpace> kinematics, jacobian;    // per item
   int threads, per_thread;
-  bool stage;
+  bool stage, position_only;
 
   // Items asking for dg/dxhat: the even ones.
   KOKKOS_INLINE_FUNCTION static bool wants_jacobian(long e) { return e % 2 == 0; }
@@ -395,8 +398,12 @@ struct TeamKinematicsRun {
     auto& kin = *reinterpret_cast<nn::PointKinematics<double>*>(own + per_thread - outputs);
     const long i = active ? e : 0;
     const double Xi[3] = {X(i, 0), X(i, 1), X(i, 2)};
-    nn::TeamMlpKinematics(member, net, weights, own, active, Xi, &xhat(i, 0), &xhatdot(i, 0), any_jacobian, kin,
-                          active && wants_jacobian(e) ? &jacobian(i, 0) : nullptr);
+    double* J = active && wants_jacobian(e) ? &jacobian(i, 0) : nullptr;
+    if (position_only)
+      nn::TeamMlpKinematics<1>(member, net, weights, own, active, Xi, &xhat(i, 0), &xhatdot(i, 0), any_jacobian, kin,
+                               J);
+    else
+      nn::TeamMlpKinematics(member, net, weights, own, active, Xi, &xhat(i, 0), &xhatdot(i, 0), any_jacobian, kin, J);
     member.team_barrier();
     Kokkos::parallel_for(Kokkos::ThreadVectorRange(member, active ? outputs : 0),
                          [&](const int c) { kinematics(i, c) = reinterpret_cast<const double*>(&kin)[c]; });
@@ -442,7 +449,8 @@ void check_team_kinematics_match_serial() {
     };
     const int lanes_max = host ? 1 : 32;
     for (int lanes = 1; lanes <= lanes_max; lanes *= 2) {
-      for (const bool stage : {false, true}) {
+      for (const auto& [stage, position_only] :
+           std::initializer_list<std::pair<bool, bool>>{{false, false}, {true, false}, {false, true}}) {
         const int threads = host ? 1 : 3;
         if (stage && net.arranged.size * sizeof(double) > 32 * 1024)
           continue;  // as the ROM: weights in scratch if small
@@ -454,7 +462,8 @@ void check_team_kinematics_match_serial() {
                 Kokkos::View<double**, Kokkos::LayoutRight, MemorySpace>("jacobian", items, 3 * r),
                 threads,
                 (net.thread_scratch_values() + Run::outputs + 7) / 8 * 8,
-                stage};
+                stage,
+                position_only};
         const std::size_t bytes = std::size_t((stage ? net.arranged.size : 0) + threads * run.per_thread) * 8 + 64;
         Kokkos::parallel_for(Kokkos::TeamPolicy<ExecutionSpace>((items + threads - 1) / threads, threads, lanes)
                                  .set_scratch_size(0, Kokkos::PerTeam(bytes)),
@@ -469,13 +478,15 @@ void check_team_kinematics_match_serial() {
           // summed magnitudes (inputs and weights of order one, activations of order ten at most).
           const double tolerance = 1e-12;
           const double* want = reinterpret_cast<const double*>(&expected);
-          for (int c = 0; c < Run::outputs; ++c)
-            EXPECT_NEAR(kinematics(e, c), want[c], tolerance) << "width " << shape.width << " lanes " << lanes
-                                                              << " stage " << stage << " item " << e << " value " << c;
+          for (int c = 0; c < (position_only ? 3 : Run::outputs); ++c)
+            EXPECT_NEAR(kinematics(e, c), want[c], tolerance)
+                << "width " << shape.width << " lanes " << lanes << " stage " << stage << " position only "
+                << position_only << " item " << e << " value " << c;
           if (!Run::wants_jacobian(e)) continue;
           for (int q = 0; q < 3 * r; ++q)
-            EXPECT_NEAR(jacobian(e, q), J[q], tolerance) << "width " << shape.width << " lanes " << lanes << " stage "
-                                                         << stage << " item " << e << " entry " << q;
+            EXPECT_NEAR(jacobian(e, q), J[q], tolerance)
+                << "width " << shape.width << " lanes " << lanes << " stage " << stage << " position only "
+                << position_only << " item " << e << " entry " << q;
         }
       }
     }

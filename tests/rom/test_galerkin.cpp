@@ -108,8 +108,10 @@ class GalerkinForce : public ::testing::Test {
     for (int s = 0; s < S; ++s) mass[s] = 0.01 * (1 + s), volume[s] = mass[s] / density;
   }
 
-  // The kernel's reduced force per unit mass at each sample (S * r), with the grid strain when rows are given.
-  std::vector<double> reduced_forces(const std::vector<double>& rows) const {
+  // The kernel's reduced force per unit mass at each sample (S * r), with the grid strain when rows are given;
+  // on_teams: then again by TeamGalerkinSampleTerms (a team per sample) from the samples' kinematics the first pass
+  // left.
+  std::vector<double> reduced_forces(const std::vector<double>& rows, bool on_teams = false) const {
     using ExecutionSpace = Kokkos::DefaultExecutionSpace;
     using MemorySpace = ExecutionSpace::memory_space;
     rom::RolloutLoads load{};
@@ -153,13 +155,35 @@ class GalerkinForce : public ::testing::Test {
     }
     Kokkos::parallel_for(Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>>(0, num_nodes),
                          rom::GridStrainNodeKinematics<BendingManifold, MemorySpace>{BendingManifold{}, nodes, xhat,
-                                                                                     xhatdot, node_u, node_dg, flags});
+                                                                                     node_u, node_dg, flags});
     real_t fastest = 0;
-    Kokkos::parallel_reduce(Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>>(0, S),
-                            rom::GalerkinSampleTerms<BendingManifold, MemorySpace>{
-                                BendingManifold{}, Xv, xhat, xhatdot, loads, material, real_t(density), real_t(0.5), x,
-                                v, J, force, flags, stencils, node_u, node_dg, grid},
+    rom::GalerkinSampleTerms<BendingManifold, MemorySpace> terms{BendingManifold{},
+                                                                 Xv,
+                                                                 xhat,
+                                                                 xhatdot,
+                                                                 loads,
+                                                                 material,
+                                                                 real_t(density),
+                                                                 real_t(0.5),
+                                                                 x,
+                                                                 v,
+                                                                 J,
+                                                                 force,
+                                                                 flags,
+                                                                 stencils,
+                                                                 node_u,
+                                                                 node_dg,
+                                                                 grid};
+    Kokkos::parallel_reduce(Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>>(0, S), terms,
                             Kokkos::Max<real_t>(fastest));
+    if (on_teams) {
+      using TeamTerms = rom::TeamGalerkinSampleTerms<BendingManifold, ExecutionSpace>;
+      Kokkos::deep_copy(force, real_t(0));
+      terms.kinematics_given = true;
+      Kokkos::parallel_reduce(Kokkos::TeamPolicy<ExecutionSpace>(S, Kokkos::AUTO)
+                                  .set_scratch_size(0, Kokkos::PerTeam(TeamTerms::scratch_bytes())),
+                              TeamTerms{terms}, Kokkos::Max<real_t>(fastest));
+    }
     EXPECT_EQ(Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), flags)(0), 0);
     const auto q = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), force);
     return std::vector<double>(q.data(), q.data() + q.size());
@@ -207,6 +231,13 @@ TEST_F(GalerkinForce, GridStrainForceIsMinusItsEnergyGradientPlusTheLoads) {
   expect_energy_gradient(reduced_forces(rows), [&](const double* xhat) {
     return grid_elastic_energy(X, volume, rows, grid, xhat, material_double);
   });
+  // The team form sums each entry of F and dF/dxhat in the one-thread order: equal up to the contraction of its
+  // multiply-adds, a few eps of the force's terms (O(1) here).
+  const std::vector<double> one_thread = reduced_forces(rows), on_teams = reduced_forces(rows, true);
+  for (std::size_t e = 0; e < one_thread.size(); ++e)
+    EXPECT_NEAR(on_teams[e], one_thread[e],
+                16 * std::numeric_limits<real_t>::epsilon() * (1 + std::fabs(one_thread[e])))
+        << "entry " << e;
 }
 
 // On a lattice of equal masses: an interior node's centroid is the node, a node beyond the body's face has its

@@ -87,7 +87,9 @@ inline int lanes_for_width(int widest) {
   return best;
 }
 
-// Kinematics (and on request dg/dxhat) of one point per team thread. Parallelism contract: every thread of the team
+// Kinematics (and on request dg/dxhat) of one point per team thread; with Channels = 1 only the position g and
+// dg/dxhat (out's other members are left as they were), one forward channel instead of eight, the same arithmetic
+// for what it computes. Parallelism contract: every thread of the team
 // calls it at once with the same any_jacobian (the team synchronises between layers); each thread's vector lanes
 // share its point. A thread with active false evaluates nothing but takes part in the synchronisation; dgdxhat is
 // written only where it is not null (and any_jacobian is true). weights: `net.values` or a copy of them in scratch;
@@ -95,11 +97,12 @@ inline int lanes_for_width(int widest) {
 // is written by the lanes, so read it after a team barrier). One function of ~100 lines: the forward pass and the
 // reverse sweeps hand the same scratch buffers back and forth (h, next, adjoint, spare) between the team's barriers;
 // split, each half would need the other's buffer roles.
-template <class Member, class T, class MemorySpace>
+template <int Channels = kinematics_channels, class Member, class T, class MemorySpace>
 KOKKOS_INLINE_FUNCTION void TeamMlpKinematics(const Member& member, const TeamMlp<T, MemorySpace>& net,
                                               const T* weights, T* scratch, bool active, const T X[3], const T* xhat,
                                               const T* xhatdot, bool any_jacobian, PointKinematics<T>& out,
                                               T* dgdxhat) {
+  static_assert(Channels == 1 || Channels == kinematics_channels, "the primal channel alone, or all of them");
   constexpr int C = kinematics_channels;
   const MlpLayout& layout = net.layout;
   const TeamMlpLayout& arranged = net.arranged;
@@ -137,10 +140,16 @@ KOKKOS_INLINE_FUNCTION void TeamMlpKinematics(const Member& member, const TeamMl
       T a[C] = {bias[i]}, b[C] = {second ? bias[i + half] : T(0)};
       for (int j = 0; j < n_in; ++j) {
         const T weight = Wt[j * stride + i], other = second ? Wt[j * stride + i + half] : T(0);
-        const NeuronChannels<T> hj = in[j];
-        for (int c = 0; c < C; ++c) {
-          a[c] += weight * hj.c[c];
-          b[c] += other * hj.c[c];
+        if constexpr (Channels == 1) {
+          const T hj = in[j].c[0];
+          a[0] += weight * hj;
+          b[0] += other * hj;
+        } else {
+          const NeuronChannels<T> hj = in[j];
+          for (int c = 0; c < C; ++c) {
+            a[c] += weight * hj.c[c];
+            b[c] += other * hj.c[c];
+          }
         }
       }
       finish_neuron(a, hidden, result[i], hidden ? layer_slope + i : nullptr);
@@ -155,6 +164,7 @@ KOKKOS_INLINE_FUNCTION void TeamMlpKinematics(const Member& member, const TeamMl
   const NeuronChannels<T>* y = h;
   Kokkos::parallel_for(Kokkos::ThreadVectorRange(member, active ? 3 : 0), [&](const int k) {
     out.g[k] = X[k] + s.output_mean[k] + s.output_scale[k] * y[k].c[0];
+    if constexpr (Channels == 1) return;
     out.v[k] = s.output_scale[k] * y[k].c[4];
     for (int j = 0; j < 3; ++j) {
       out.F[k][j] = (k == j ? T(1) : T(0)) + s.output_scale[k] * y[k].c[1 + j];

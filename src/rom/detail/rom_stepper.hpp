@@ -135,9 +135,11 @@ class BatchStepper final : public BatchStepperBase {
     sources_scratch_ = rom::MaterialPointSources<Manifold, ExecutionSpace>::scratch_for(manifold_);
     samples_scratch_ = rom::SampleKinematics<Manifold, ExecutionSpace>::scratch_for(manifold_);
     sources_shape_ = rom::team_shape<ExecutionSpace>(long(B) * K, manifold_.team_lanes(), sources_scratch_);
-    samples_shape_ = rom::team_shape<ExecutionSpace>(long(B) * S, manifold_.team_lanes(), samples_scratch_);
-    nodes_shape_ = rom::team_shape<ExecutionSpace>(long(B) * long(strain_.nodes.extent(0)), manifold_.team_lanes(),
-                                                   samples_scratch_);
+    const long sample_items = long(B) * S, node_items = long(B) * long(strain_.nodes.extent(0));
+    samples_shape_ = rom::team_shape<ExecutionSpace>(
+        sample_items, rom::lanes_for_items<ExecutionSpace>(sample_items, manifold_.team_lanes()), samples_scratch_);
+    nodes_shape_ = rom::team_shape<ExecutionSpace>(
+        node_items, rom::lanes_for_items<ExecutionSpace>(node_items, manifold_.team_lanes()), samples_scratch_);
     // On GPUs, a batch too small to give each of a quarter of the resident threads a node gathers across lanes;
     // the projection takes its rows across lanes.
     if (!host_space) {
@@ -296,14 +298,12 @@ class BatchStepper final : public BatchStepperBase {
         .set_scratch_size(0, Kokkos::PerTeam(scratch.bytes(shape)));
   }
 
-  // Positions (into `positions`) and dg/dxhat of the samples at (xhat, xhatdot).
-  void sample_kinematics(const ExecutionSpace& space, const Matrix& xhat, const Matrix& xhatdot,
-                         const Cube& positions) {
+  // Positions (into `positions`) and dg/dxhat of the samples at xhat.
+  void sample_kinematics(const ExecutionSpace& space, const Matrix& xhat, const Cube& positions) {
     using Samples = rom::SampleKinematics<Manifold, ExecutionSpace>;
-    Kokkos::parallel_for(
-        "mpmrom::rom::sample_kinematics",
-        teams(space, long(B_) * S_, samples_shape_, samples_shape_.threads, samples_scratch_),
-        Samples{manifold_, samples_X_, xhat, xhatdot, positions, sample_J_, samples_shape_, samples_scratch_});
+    Kokkos::parallel_for("mpmrom::rom::sample_kinematics",
+                         teams(space, long(B_) * S_, samples_shape_, samples_shape_.threads, samples_scratch_),
+                         Samples{manifold_, samples_X_, xhat, positions, sample_J_, samples_shape_, samples_scratch_});
   }
 
   // The grid strain's nodes: their displacements and dg/dxhat at xhat (GridStrainNodeKinematics).
@@ -311,13 +311,13 @@ class BatchStepper final : public BatchStepperBase {
     const long items = long(B_) * long(strain_.nodes.extent(0));
     if constexpr (host_space)
       Kokkos::parallel_for("mpmrom::rom::grid_strain_nodes", Range(space, 0, items),
-                           rom::GridStrainNodeKinematics<Manifold, MemorySpace>{
-                               manifold_, strain_.nodes, xhat_, xhatdot_, strain_.u, strain_.dg, flags_});
+                           rom::GridStrainNodeKinematics<Manifold, MemorySpace>{manifold_, strain_.nodes, xhat_,
+                                                                                strain_.u, strain_.dg, flags_});
     else
-      Kokkos::parallel_for(
-          "mpmrom::rom::grid_strain_nodes", teams(space, items, nodes_shape_, nodes_shape_.threads, samples_scratch_),
-          rom::TeamGridStrainNodeKinematics<Manifold, ExecutionSpace>{
-              manifold_, strain_.nodes, xhat_, xhatdot_, strain_.u, strain_.dg, nodes_shape_, samples_scratch_});
+      Kokkos::parallel_for("mpmrom::rom::grid_strain_nodes",
+                           teams(space, items, nodes_shape_, nodes_shape_.threads, samples_scratch_),
+                           rom::TeamGridStrainNodeKinematics<Manifold, ExecutionSpace>{
+                               manifold_, strain_.nodes, xhat_, strain_.u, strain_.dg, nodes_shape_, samples_scratch_});
   }
 
   // Algorithms 1 and 2 up to the projection: sources, node velocities, the samples' velocities from the grid.
@@ -331,7 +331,7 @@ class BatchStepper final : public BatchStepperBase {
           PointSources{manifold_, points_X_, points_mass_, points_volume_, xhat_, xhatdot_, loads_, material_, t, dt,
                        apic_, sources_, sample_x_, sample_J_, flags_, sources_shape_, sources_scratch_});
     } else {
-      sample_kinematics(space, xhat_, xhatdot_, sample_x_);
+      sample_kinematics(space, xhat_, sample_x_);
       Kokkos::parallel_for("mpmrom::rom::quadrature_sources", Range(space, 0, long(B) * K),
                            rom::QuadratureSources<Manifold, MemorySpace>{manifold_,
                                                                          quadrature_x_,
@@ -370,23 +370,43 @@ class BatchStepper final : public BatchStepperBase {
         Kokkos::Max<real_t, MemorySpace>(fastest_sample_));
   }
 
+  // The Galerkin step's per-sample forces, momenta and the fastest sample; the grid strain's sums on teams on GPUs.
+  void galerkin_terms(const ExecutionSpace& space, real_t t, real_t dt, bool strain_on_teams) {
+    const rom::GalerkinSampleTerms<Manifold, MemorySpace> terms{
+        manifold_,      samples_X_,
+        xhat_,          xhatdot_,
+        loads_,         material_,
+        density_,       t,
+        sample_x_,      sample_v_,
+        sample_J_,      sample_force_,
+        flags_,         strain_.stencils,
+        strain_.u,      strain_.dg,
+        grid_,          settings_.galerkin_transfer ? dt : real_t(0),
+        strain_on_teams};
+    const auto fastest = Kokkos::Max<real_t, MemorySpace>(fastest_sample_);
+    if (strain_on_teams) {
+      using TeamTerms = rom::TeamGalerkinSampleTerms<Manifold, ExecutionSpace>;
+      Kokkos::parallel_reduce(
+          "mpmrom::rom::galerkin_terms",
+          Teams(space, B_ * S_, 32).set_scratch_size(0, Kokkos::PerTeam(TeamTerms::scratch_bytes())), TeamTerms{terms},
+          fastest);
+    } else {
+      Kokkos::parallel_reduce("mpmrom::rom::galerkin_terms", Range(space, 0, long(B_) * S_), terms, fastest);
+    }
+  }
+
   // One time step of every rollout: the samples' velocities from the grid (paper Algorithms 1, 2) or their momenta
   // and reduced forces (Galerkin), then the projection.
   void substep(real_t t, real_t dt) {
     const ExecutionSpace space;
-    const int B = B_, S = S_, r = latent_dim_;
+    const int B = B_, r = latent_dim_;
     // On GPUs the grid strain's network runs on teams (one thread per item would run it alone); host builds keep
     // one thread per item, its faster one-pass evaluation.
     const bool strain_on_teams = !host_space && strain_.stencils.extent(0) > 0;
     if (galerkin_ && strain_.nodes.extent(0) > 0) move_strain_nodes(space);
-    if (galerkin_ && strain_on_teams) sample_kinematics(space, xhat_, xhatdot_, sample_x_);
+    if (galerkin_ && strain_on_teams) sample_kinematics(space, xhat_, sample_x_);
     if (galerkin_)
-      Kokkos::parallel_reduce("mpmrom::rom::galerkin_terms", Range(space, 0, long(B) * S),
-                              rom::GalerkinSampleTerms<Manifold, MemorySpace>{
-                                  manifold_, samples_X_, xhat_, xhatdot_, loads_, material_, density_, t, sample_x_,
-                                  sample_v_, sample_J_, sample_force_, flags_, strain_.stencils, strain_.u, strain_.dg,
-                                  grid_, settings_.galerkin_transfer ? dt : real_t(0), strain_on_teams},
-                              Kokkos::Max<real_t, MemorySpace>(fastest_sample_));
+      galerkin_terms(space, t, dt, strain_on_teams);
     else
       transfer(space, t, dt);
     using Projection = rom::ProjectSamples<ExecutionSpace, MemorySpace>;
@@ -422,7 +442,7 @@ class BatchStepper final : public BatchStepperBase {
     // scheme moves the trial state onto the samples' updated positions as it goes. The Galerkin step carries the
     // momentum onto the trial state's tangent space the same way.
     for (int iteration = 0; iteration < settings_.projection_iterations; ++iteration) {
-      sample_kinematics(space, xhat_next_, xhatdot_next_, trial_x_);
+      sample_kinematics(space, xhat_next_, trial_x_);
       project(false);
     }
     std::swap(xhat_, xhat_next_);

@@ -33,7 +33,7 @@ template <class Manifold, class MemorySpace>
 struct GridStrainNodeKinematics {
   Manifold manifold;
   Kokkos::View<const real_t**, Kokkos::LayoutRight, MemorySpace> nodes;  // (nodes, 6): grid_strain_nodes' rows
-  BatchMatrix<MemorySpace> xhat, xhatdot;
+  BatchMatrix<MemorySpace> xhat;
   BatchVectors<MemorySpace> node_u;     // out: (rollouts, nodes, 3)
   BatchJacobians<MemorySpace> node_dg;  // out: (rollouts, nodes, 3, r)
   Kokkos::View<int*, MemorySpace> flags;
@@ -62,7 +62,7 @@ struct TeamGridStrainNodeKinematics {
 
   Manifold manifold;
   Kokkos::View<const real_t**, Kokkos::LayoutRight, MemorySpace> nodes;  // (nodes, 6): grid_strain_nodes' rows
-  BatchMatrix<MemorySpace> xhat, xhatdot;
+  BatchMatrix<MemorySpace> xhat;
   BatchVectors<MemorySpace> node_u;     // out: (rollouts, nodes, 3)
   BatchJacobians<MemorySpace> node_dg;  // out: (rollouts, nodes, 3, r)
   TeamShape shape;
@@ -74,11 +74,11 @@ struct TeamGridStrainNodeKinematics {
     const bool active = e < long(xhat.extent(0)) * num_nodes;
     const int b = active ? int(e / num_nodes) : 0, i = active ? int(e % num_nodes) : 0;
     const real_t Xbar[3] = {nodes(i, 0), nodes(i, 1), nodes(i, 2)};
-    const auto& kin = team_point_kinematics(manifold, member, shape, scratch, active, Xbar, &xhat(b, 0), &xhatdot(b, 0),
-                                            active ? &node_dg(b, i, 0, 0) : nullptr);
+    const real_t* g = team_point_position_and_tangent(manifold, member, shape, scratch, active, Xbar, &xhat(b, 0),
+                                                      active ? &node_dg(b, i, 0, 0) : nullptr);
     Kokkos::parallel_for(Kokkos::ThreadVectorRange(member, active ? 3 : 0), [&](const int a) {
       const real_t free = nodes(i, 3 + a);
-      node_u(b, i, a) = free * (kin.g[a] - Xbar[a]);
+      node_u(b, i, a) = free * (g[a] - Xbar[a]);
       for (int k = 0; k < r; ++k) node_dg(b, i, a, k) *= free;
     });
   }
@@ -111,29 +111,43 @@ struct GalerkinSampleTerms {
   bool kinematics_given = false;
 
   KOKKOS_INLINE_FUNCTION void operator()(const long e, real_t& max_speed) const {
-    const int num_samples = int(X.extent(0)), r = int(xhat.extent(1));
+    const int num_samples = int(X.extent(0));
     const int b = int(e / num_samples), s = int(e % num_samples);
     if (flags(b) & fatal_flags) return;
     const real_t Xs[3] = {X(s, 0), X(s, 1), X(s, 2)};
     nn::PointKinematics<real_t> kin;
     Mat3<real_t> F, dF[max_latent_dim];
-    const bool on_grid = stencils.extent(0) > 0;
-    QuadraticStencil<real_t> stencil{};  // the grid strain's only
-    if (on_grid) {                       // the sample's position, J and velocity J xhatdot; its own F is not needed
-      if (kinematics_given)
-        for (int d = 0; d < 3; ++d) kin.g[d] = sample_x(b, s, d);
-      else
-        manifold.position_and_tangent(Xs, &xhat(b, 0), kin.g, &sample_J(b, s, 0, 0));
-      for (int d = 0; d < 3; ++d) {
-        kin.v[d] = 0;
-        for (int k = 0; k < r; ++k) kin.v[d] += sample_J(b, s, d, k) * xhatdot(b, k);
-      }
-      stencil = quadratic_stencil(Vec3<real_t>{{Xs[0], Xs[1], Xs[2]}}, grid.origin, grid.inv_dx);
-      grid_strain(b, s, stencil, F, dF);
+    if (stencils.extent(0) > 0) {
+      grid_motion(b, s, Xs, kin);
+      grid_strain(b, s, sample_stencil(Xs), F, dF);
     } else {
       manifold.kinematics(Xs, &xhat(b, 0), &xhatdot(b, 0), kin, &sample_J(b, s, 0, 0));
       continuum_strain(b, Xs, kin, F, dF);
     }
+    stress_and_force(b, s, Xs, kin, F, dF, max_speed);
+  }
+
+  KOKKOS_INLINE_FUNCTION QuadraticStencil<real_t> sample_stencil(const real_t Xs[3]) const {
+    return quadratic_stencil(Vec3<real_t>{{Xs[0], Xs[1], Xs[2]}}, grid.origin, grid.inv_dx);
+  }
+
+  // With the grid strain: the sample's position, J and velocity J xhatdot; its own F is not needed.
+  KOKKOS_INLINE_FUNCTION void grid_motion(int b, int s, const real_t Xs[3], nn::PointKinematics<real_t>& kin) const {
+    const int r = int(xhat.extent(1));
+    if (kinematics_given)
+      for (int d = 0; d < 3; ++d) kin.g[d] = sample_x(b, s, d);
+    else
+      manifold.position_and_tangent(Xs, &xhat(b, 0), kin.g, &sample_J(b, s, 0, 0));
+    for (int d = 0; d < 3; ++d) {
+      kin.v[d] = 0;
+      for (int k = 0; k < r; ++k) kin.v[d] += sample_J(b, s, d, k) * xhatdot(b, k);
+    }
+  }
+
+  // From F and dF/dxhat at the sample: its generalised force q_s, the transfer's share, its position and velocity.
+  KOKKOS_INLINE_FUNCTION void stress_and_force(int b, int s, const real_t Xs[3], const nn::PointKinematics<real_t>& kin,
+                                               const Mat3<real_t>& F, const Mat3<real_t>* dF, real_t& max_speed) const {
+    const int r = int(xhat.extent(1));
     if (!(determinant(F) > real_t(0))) {
       Kokkos::atomic_or(&flags(b), int(flag_inverted));
       return;
@@ -149,7 +163,7 @@ struct GalerkinSampleTerms {
       for (int d = 0; d < 3; ++d) q += sample_J(b, s, d, k) * body[d];
       sample_force(b, s * r + k) = q;
     }
-    if (on_grid && transfer_dt > 0) add_transfer(b, s, stencil, kin);
+    if (stencils.extent(0) > 0 && transfer_dt > 0) add_transfer(b, s, sample_stencil(Xs), kin);
     for (int d = 0; d < 3; ++d) {
       sample_x(b, s, d) = kin.g[d];
       sample_v(b, s, d) = kin.v[d];
@@ -192,6 +206,19 @@ struct GalerkinSampleTerms {
     }
   }
 
+  // One entry of grid_strain's sums, in its order, for a team thread: (a, c) of F (entry = 3 a + c) or of
+  // dF/dxhat_k (entry = 9 (k + 1) + 3 a + c).
+  KOKKOS_INLINE_FUNCTION real_t grid_strain_entry(int b, int s, const QuadraticStencil<real_t>& stencil,
+                                                  int entry) const {
+    const int k = entry / 9 - 1, a = entry % 9 / 3, c = entry % 3;
+    real_t sum = k < 0 && a == c ? real_t(1) : real_t(0);
+    for (int n = 0; n < 27; ++n) {
+      const int i = stencils(s, n);
+      sum += (k < 0 ? node_u(b, i, a) : node_dg(b, i, a, k)) * stencil.gradient(n / 9, (n / 3) % 3, n % 3)[c];
+    }
+    return sum;
+  }
+
   // MPM's transfer of the sample's velocity: G2P from its stencil's nodes, each moving as the manifold moves the
   // material at it (dg/dxhat(Xbar_i) xhatdot, 0 on held axes), sum_i N_i(X_s) v_i replaces v_s in J_s^T v_s; the
   // difference over dt joins the force (the smoothing, and the held nodes' drag, of Algorithm 1's transfer).
@@ -210,6 +237,38 @@ struct GalerkinSampleTerms {
       for (int a = 0; a < 3; ++a) change += sample_J(b, s, a, k) * (gathered[a] - kin.v[a]);
       sample_force(b, s * r + k) += change / transfer_dt;
     }
+  }
+};
+
+// GalerkinSampleTerms with the grid strain on teams (GPUs, where one thread per (rollout, sample) leaves the force's
+// sums to a few threads): a team per (rollout, sample), its threads summing the entries of F and dF/dxhat over the 27
+// stencil nodes (each entry in the one-thread order), one thread then the stress and the force. Needs
+// kinematics_given (SampleKinematics has run); team scratch: scratch_bytes().
+template <class Manifold, class ExecutionSpace>
+struct TeamGalerkinSampleTerms {
+  using member_type = typename Kokkos::TeamPolicy<ExecutionSpace>::member_type;
+  GalerkinSampleTerms<Manifold, typename ExecutionSpace::memory_space> terms;
+
+  static constexpr std::size_t scratch_bytes() { return 9 * (max_latent_dim + 1) * sizeof(real_t); }
+
+  KOKKOS_INLINE_FUNCTION void operator()(const member_type& member, real_t& max_speed) const {
+    const int num_samples = int(terms.X.extent(0)), r = int(terms.xhat.extent(1));
+    const int b = member.league_rank() / num_samples, s = member.league_rank() % num_samples;
+    const real_t Xs[3] = {terms.X(s, 0), terms.X(s, 1), terms.X(s, 2)};
+    const QuadraticStencil<real_t> stencil = terms.sample_stencil(Xs);
+    real_t* entries = static_cast<real_t*>(member.team_scratch(0).get_shmem(scratch_bytes()));
+    Kokkos::parallel_for(Kokkos::TeamThreadRange(member, 9 * (r + 1)),
+                         [&](const int entry) { entries[entry] = terms.grid_strain_entry(b, s, stencil, entry); });
+    member.team_barrier();
+    Kokkos::single(Kokkos::PerTeam(member), [&]() {
+      if (terms.flags(b) & fatal_flags) return;  // read once, by the thread that acts on it
+      nn::PointKinematics<real_t> kin;
+      terms.grid_motion(b, s, Xs, kin);
+      Mat3<real_t> F, dF[max_latent_dim];
+      for (int entry = 0; entry < 9 * (r + 1); ++entry)
+        (entry < 9 ? F : dF[entry / 9 - 1])(entry % 9 / 3, entry % 3) = entries[entry];
+      terms.stress_and_force(b, s, Xs, kin, F, dF, max_speed);
+    });
   }
 };
 

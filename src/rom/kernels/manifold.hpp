@@ -13,6 +13,9 @@
 //   KOKKOS_FUNCTION void team_kinematics(const Member&, const real_t* staged, real_t* thread_scratch, bool active,
 //        const real_t X[3], const real_t* xhat, const real_t* xhatdot, bool any_jacobian,
 //        nn::PointKinematics<real_t>& out, real_t* dgdxhat) const;   // contract of nn::TeamMlpKinematics
+//   KOKKOS_FUNCTION void team_position_and_tangent(const Member&, const real_t* staged, real_t* thread_scratch,
+//        bool active, const real_t X[3], const real_t* xhat, nn::PointKinematics<real_t>& out /* g alone */,
+//        real_t* dgdxhat) const;                     // the same, g and dg/dxhat alone
 // MlpManifold adapts a trained network; tests plug in analytic maps, which get the team interface from
 // TeamFromSerial. Parallelism contract: value types; kinematics and position_and_gradient within one thread.
 #pragma once
@@ -49,6 +52,15 @@ struct TeamFromSerial {
     if (active)
       Kokkos::single(Kokkos::PerThread(member),
                      [&]() { static_cast<const Manifold&>(*this).kinematics(X, xhat, xhatdot, out, dgdxhat); });
+    member.team_barrier();
+  }
+  template <class Member>
+  KOKKOS_INLINE_FUNCTION void team_position_and_tangent(const Member& member, const real_t*, real_t*, bool active,
+                                                        const real_t X[3], const real_t* xhat,
+                                                        nn::PointKinematics<real_t>& out, real_t* dgdxhat) const {
+    if (active)
+      Kokkos::single(Kokkos::PerThread(member),
+                     [&]() { static_cast<const Manifold&>(*this).position_and_tangent(X, xhat, out.g, dgdxhat); });
     member.team_barrier();
   }
 };
@@ -108,6 +120,20 @@ struct MlpManifold {
       if (active) kinematics(X, xhat, xhatdot, out, dgdxhat);
     } else {
       nn::TeamMlpKinematics(member, team, staged, thread_scratch, active, X, xhat, xhatdot, any_jacobian, out, dgdxhat);
+    }
+  }
+
+  // g and dg/dxhat alone (dgdxhat not null where active): the primal channel of team_kinematics, the same arithmetic.
+  template <class Member>
+  KOKKOS_INLINE_FUNCTION void team_position_and_tangent(const Member& member, const real_t* staged,
+                                                        real_t* thread_scratch, bool active, const real_t X[3],
+                                                        const real_t* xhat, nn::PointKinematics<real_t>& out,
+                                                        real_t* dgdxhat) const {
+    const real_t rest[max_latent_dim] = {};  // the rate does not reach g or dg/dxhat
+    if constexpr (host_space) {
+      if (active) kinematics(X, xhat, rest, out, dgdxhat);
+    } else {
+      nn::TeamMlpKinematics<1>(member, team, staged, thread_scratch, active, X, xhat, rest, true, out, dgdxhat);
     }
   }
 };

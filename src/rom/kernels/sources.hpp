@@ -267,19 +267,21 @@ struct CheckInversions {
   }
 };
 
-// One point's kinematics a team thread, its lanes sharing the network (SampleKinematics' layout: scratch from
-// scratch_for, the kinematics in the thread's last kinematics_values); the team has synchronised on return.
+// One point's position (returned) and dg/dxhat a team thread, its lanes sharing the network (SampleKinematics'
+// layout: scratch from scratch_for, the position in the thread's last kinematics_values); the team has synchronised
+// on return.
 template <class Manifold, class Member>
-KOKKOS_INLINE_FUNCTION const nn::PointKinematics<real_t>& team_point_kinematics(
-    const Manifold& manifold, const Member& member, const TeamShape& shape, const TeamScratch& scratch, bool active,
-    const real_t X[3], const real_t* xhat, const real_t* xhatdot, real_t* dgdxhat) {
+KOKKOS_INLINE_FUNCTION const real_t* team_point_position_and_tangent(const Manifold& manifold, const Member& member,
+                                                                     const TeamShape& shape, const TeamScratch& scratch,
+                                                                     bool active, const real_t X[3], const real_t* xhat,
+                                                                     real_t* dgdxhat) {
   real_t* base = scratch.base(member, shape);
   const real_t* staged = manifold.team_stage(member, base);
   real_t* own = scratch.thread_part(base, member.team_rank());
   auto& kin = *reinterpret_cast<nn::PointKinematics<real_t>*>(own + (scratch.per_thread - kinematics_values));
-  manifold.team_kinematics(member, staged, own, active, X, xhat, xhatdot, true, kin, dgdxhat);
+  manifold.team_position_and_tangent(member, staged, own, active, X, xhat, kin, dgdxhat);
   member.team_barrier();
-  return kin;
+  return kin.g;
 }
 
 // The sample material points (fixed reference positions) for the projection: Algorithm 2's step 6, and both
@@ -292,11 +294,11 @@ struct SampleKinematics {
 
   Manifold manifold;
   Kokkos::View<const real_t**, Kokkos::LayoutRight, MemorySpace> X;  // (samples, 3)
-  BatchMatrix<MemorySpace> xhat, xhatdot;
+  BatchMatrix<MemorySpace> xhat;
   BatchVectors<MemorySpace> sample_x;
   BatchJacobians<MemorySpace> sample_J;
   TeamShape shape;
-  TeamScratch scratch;  // the manifold's, with one item's kinematics per thread
+  TeamScratch scratch;  // the manifold's, with one item's PointKinematics per thread (its position used)
 
   static TeamScratch scratch_for(const Manifold& manifold) {
     TeamScratch scratch = manifold.team_scratch();
@@ -311,10 +313,10 @@ struct SampleKinematics {
     const bool active = e < total;
     const int b = active ? int(e / num_samples) : 0, s = active ? int(e % num_samples) : 0;
     const real_t Xs[3] = {X(s, 0), X(s, 1), X(s, 2)};
-    const auto& kin = team_point_kinematics(manifold, member, shape, scratch, active, Xs, &xhat(b, 0), &xhatdot(b, 0),
-                                            active ? &sample_J(b, s, 0, 0) : nullptr);
+    const real_t* g = team_point_position_and_tangent(manifold, member, shape, scratch, active, Xs, &xhat(b, 0),
+                                                      active ? &sample_J(b, s, 0, 0) : nullptr);
     Kokkos::parallel_for(Kokkos::ThreadVectorRange(member, active ? 3 : 0),
-                         [&](const int d) { sample_x(b, s, d) = kin.g[d]; });
+                         [&](const int d) { sample_x(b, s, d) = g[d]; });
   }
 };
 
