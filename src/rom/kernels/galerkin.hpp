@@ -14,7 +14,8 @@
 // The projection (projection.hpp) then solves M(xhat_n+1) xhatdot_n+1 = sum_s w_s m_s J_s(xhat_n+1)^T v_s + dt f,
 // v_s = J_s(xhat_n) xhatdot_n: the momentum carried onto the new tangent space plus the impulse; with the grid
 // transfer v_s is gathered from the stencil's nodes instead (add_transfer). Parallelism: one thread per (rollout,
-// sample), and for the grid strain's nodes first one thread per (rollout, node).
+// sample), and for the grid strain's nodes first one thread per (rollout, node); on GPUs the grid strain's sums take
+// a team per (rollout, sample) (TeamGalerkinSampleTerms) and the nodes' network a team thread's lanes.
 #pragma once
 
 #include "mpm/bspline.hpp"
