@@ -256,7 +256,8 @@ void add_rollout(CLI::App& app, Commands& commands) {
       ->check(CLI::ExistingFile);
   add_defaulted(
       command, "--cfl", o->rom_settings.cfl,
-      "Time step as a fraction of the CFL limit, up to 10 (0: the scene's; above 1 the FOM would be unstable)");
+      "Time step as a fraction of the CFL limit, up to 10, 100 with --method galerkin, whose step its reduced "
+      "dynamics' highest frequency also bounds (0: the scene's; above 1 the FOM would be unstable)");
   add_defaulted(command, "--end-time", o->rom_settings.end_time,
                 "Horizon (s), rounded to whole output intervals of the scene (0: the scene's end time)");
   add_defaulted(command, "--margin", o->rom_settings.envelope_margin, "Cells of slack around the training motion");

@@ -126,6 +126,15 @@ TEST_F(RolloutBatchApi, GalerkinWeightsFitTheGridStepsForce) {
   RomSettings from_runs = reduced.settings;
   from_runs.snapshot_source = SnapshotSource::Full;
   EXPECT_THROW(from_runs.validate(), std::invalid_argument);
+  // --cfl caps the Galerkin step's time step up to 100 (its reduced dynamics bound it), the grid methods' up to 10
+  RomSettings long_step = reduced.settings;
+  long_step.cfl = 100;
+  long_step.validate();
+  long_step.cfl = 101;
+  EXPECT_THROW(long_step.validate(), std::invalid_argument);
+  RomSettings grid_long_step;
+  grid_long_step.cfl = 11;
+  EXPECT_THROW(grid_long_step.validate(), std::invalid_argument);
   // A rollout at a longer time step than the scene's takes the weights fitted at the scene's (the grid step's force)
   const Scene scene = load_scene(scene_path());
   RomSettings longer = states.settings;
