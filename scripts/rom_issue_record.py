@@ -10,6 +10,8 @@ import sys
 if len(sys.argv) != 6:
     sys.exit(__doc__.splitlines()[-1])
 src, dst, scene, method, commit = sys.argv[1:]
+if os.path.exists(dst) and not os.path.isfile(dst):  # written as dst.tmp, then renamed over it
+    sys.exit(f"rom_issue_record: error: {dst} exists and is not a regular file")
 record = json.load(open(src))
 errors, rollout = record["errors"]["test"], record["rollout"]
 reduction = rollout["hyper_reduction"]

@@ -12,6 +12,8 @@ import sys
 if len(sys.argv) != 4:
     sys.exit(__doc__.splitlines()[-1])
 study_path, fom_path, dst = sys.argv[1:]
+if os.path.exists(dst) and not os.path.isfile(dst):  # written as dst.tmp, then renamed over it
+    sys.exit(f"rom_speedup_record: error: {dst} exists and is not a regular file")
 study, fom = json.load(open(study_path)), json.load(open(fom_path))
 rollout, errors = study["rollout"], study["errors"]["test"]
 if rollout["scene"] != fom["scene"]:
