@@ -100,6 +100,9 @@ int train(const TrainOptions& o, const Context& context) {
                    split, 100 * e["position_error"].get<double>(), 100 * e["displacement_error"].get<double>(),
                    100 * e["velocity_error"].get<double>(), 100 * e["F_error"].get<double>(),
                    100 * e["strain_error"].get<double>());
+      if (e.contains("tangent_velocity_error"))  // the floor any reduced dynamics on the manifold meets
+        std::fprintf(stderr, "  %-18s velocity of the best rates on the tangent space %.3f %%\n", "",
+                     100 * e["tangent_velocity_error"].get<double>());
     }
   }
   return 0;

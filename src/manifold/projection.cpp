@@ -206,8 +206,52 @@ std::vector<double> project_codes(const Model& model, const Snapshot& run) {
   return codes;
 }
 
-ErrorAccumulator reconstruction_errors(const Model& model, const Snapshot& run, const std::vector<double>& codes,
-                                       const std::vector<int>& points) {
+double VelocityByFrame::tangent_velocity_error() const {
+  const double misfit = std::accumulate(tangent_misfit.begin(), tangent_misfit.end(), 0.0);
+  const double total = std::accumulate(norm.begin(), norm.end(), 0.0);
+  return total > 0 ? std::sqrt(misfit / total) : (misfit > 0 ? INFINITY : 0.0);
+}
+
+nlohmann::json VelocityByFrame::frames_json() const {
+  const auto ratio = [](double misfit, double total) {
+    return total > 0 ? std::sqrt(misfit / total) : (misfit > 0 ? INFINITY : 0.0);
+  };
+  nlohmann::json out = nlohmann::json::array();
+  for (std::size_t f = 0; f < time.size(); ++f)
+    out.push_back({{"time", time[f]},
+                   {"velocity_error", ratio(rate_misfit[f], norm[f])},
+                   {"tangent_velocity_error", ratio(tangent_misfit[f], norm[f])}});
+  return out;
+}
+
+namespace {
+
+// Per frame, the velocity misfits of the rates and of the tangent space's best fit, from the sums of misfit_sums
+// taken with the decoded velocities J rate in place of g and the run's velocities in place of x: with b = J^T (J rate
+// - v) and A = J^T J, min over rates a of |J a - v|^2 is |J rate - v|^2 - b^T A^-1 b.
+VelocityByFrame velocity_by_frame(const Snapshot& run, const Cube& velocity, const Quad& J, int r) {
+  const int P = int(run.num_points), frames = int(run.num_frames);
+  const Positions v = upload<Positions>("mpmrom::errors::v_run", run.v, frames, P, 3);
+  const NormalEquations sums = misfit_sums(velocity, J, v, frames, P, r);
+  VelocityByFrame out{run.time, sums.cost, sums.cost, std::vector<double>(frames)};
+  for (int f = 0; f < frames; ++f) {
+    for (std::size_t i = std::size_t(f) * P * 3; i < std::size_t(f + 1) * P * 3; ++i)
+      out.norm[f] += run.v[i] * run.v[i];
+    std::vector<double> A(&sums.JtJ[std::size_t(f) * r * r], &sums.JtJ[std::size_t(f + 1) * r * r]);
+    std::vector<double> correction(&sums.Jtr[std::size_t(f) * r], &sums.Jtr[std::size_t(f + 1) * r]);
+    if (!dense::SerialCholesky(A.data(), r, r)) continue;  // a degenerate tangent space: the rates' misfit stands
+    dense::SerialCholeskySolve(A.data(), r, r, correction.data());
+    double reduction = 0;
+    for (int a = 0; a < r; ++a) reduction += sums.Jtr[std::size_t(f) * r + a] * correction[a];
+    out.tangent_misfit[f] = std::max(sums.cost[f] - reduction, 0.0);  // cancellation may leave a rounding below 0
+  }
+  return out;
+}
+
+}  // namespace
+
+ReconstructionErrors reconstruction_errors(const Model& model, const Snapshot& run, const std::vector<double>& codes,
+                                           const std::vector<int>& points) {
   const int r = model.latent_dim;
   const int P = int(run.num_points), frames = int(run.num_frames);
   if (codes.size() != std::size_t(frames) * r) throw std::invalid_argument("one code per frame is needed");
@@ -232,14 +276,15 @@ ErrorAccumulator reconstruction_errors(const Model& model, const Snapshot& run, 
     all.resize(P);
     std::iota(all.begin(), all.end(), 0);
   }
-  ErrorAccumulator errors;
+  ReconstructionErrors out;
   for (int f = 0; f < frames; ++f)
     for (const int p : points.empty() ? all : points) {
       const std::size_t i = std::size_t(f) * P + p;
-      errors.add(centroid, &run.X[3 * p], &run.x[3 * i], &g_host[3 * i], &run.v[3 * i], &v_host[3 * i], &run.F[9 * i],
-                 &F_host[9 * i]);
+      out.errors.add(centroid, &run.X[3 * p], &run.x[3 * i], &g_host[3 * i], &run.v[3 * i], &v_host[3 * i],
+                     &run.F[9 * i], &F_host[9 * i]);
     }
-  return errors;
+  if (points.empty()) out.velocity = velocity_by_frame(run, velocity, J, r);
+  return out;
 }
 
 }  // namespace mpmrom

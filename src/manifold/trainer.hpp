@@ -82,9 +82,26 @@ Model train_model(const TrainingData& data, const TrainingSettings& settings, co
 // position misfits over all points, started from the closest training code.
 std::vector<double> project_codes(const Model& model, const Snapshot& run);
 
+// The reconstruction's velocity frame by frame: squared misfits summed over the run's points, of the codes' finite-
+// difference rates and of the best rate on the tangent space (the least-squares fit of the run's velocities, the
+// least velocity error any reduced dynamics on this manifold can reach at the frame's code), and |v|^2.
+struct VelocityByFrame {
+  std::vector<double> time, rate_misfit, tangent_misfit, norm;
+
+  // The error over every frame of the best rates (SPEC's velocity_error with the tangent fit's velocities).
+  double tangent_velocity_error() const;
+  // Per frame: {"time", "velocity_error", "tangent_velocity_error"}.
+  nlohmann::json frames_json() const;
+};
+
+struct ReconstructionErrors {
+  ErrorAccumulator errors;
+  VelocityByFrame velocity;  // of every point; empty when `points` chose some
+};
+
 // Errors of the model with the given codes (frames, r) against the run; velocities from the codes' finite
 // differences in time. points: the material points to include (empty: all).
-ErrorAccumulator reconstruction_errors(const Model& model, const Snapshot& run, const std::vector<double>& codes,
-                                       const std::vector<int>& points = {});
+ReconstructionErrors reconstruction_errors(const Model& model, const Snapshot& run, const std::vector<double>& codes,
+                                           const std::vector<int>& points = {});
 
 }  // namespace mpmrom

@@ -102,6 +102,55 @@ TEST(RateStencil, CentralInsideOneSidedAtTheEndsZeroWhereARunStartsAtRest) {
   EXPECT_FALSE(impl::starts_at_rest(run));
 }
 
+// The model's dg/dxhat at every point of a frame (r = 1: the decoded velocity at unit rate), on the host in double.
+std::vector<double> tangent_at(const Model& model, const Snapshot& run, int frame, const std::vector<double>& codes) {
+  Kokkos::View<double*, Kokkos::HostSpace> params("params", model.weights.size());
+  for (std::size_t i = 0; i < model.weights.size(); ++i) params(i) = model.weights[i];
+  nn::Mlp<double, Kokkos::HostSpace> mlp;
+  mlp.layout = nn::MlpLayout::make(1, model.width, model.depth);
+  mlp.standardization = model.standardization;
+  mlp.params = params;
+  std::vector<double> J;
+  const double unit_rate = 1.0;
+  for (std::size_t p = 0; p < run.num_points; ++p) {
+    nn::PointKinematics<double> k;
+    nn::SerialMlpKinematics<64>(mlp, &run.X[3 * p], &codes[frame], &unit_rate, k, static_cast<double*>(nullptr));
+    J.insert(J.end(), k.v, k.v + 3);
+  }
+  return J;
+}
+
+// The tangent space's best rate per frame (r = 1): misfit |v|^2 - (J.v)^2 / (J.J), computed here from the host
+// kinematics, against reconstruction_errors' from its device sums; and velocities made to lie in the tangent space
+// (v = J a, a different per frame) leave it no misfit while the codes' finite-difference rates still have one.
+void expect_tangent_floor(const Model& model, Snapshot run, const std::vector<double>& codes) {
+  const auto floor_of = [&](const Snapshot& s) { return reconstruction_errors(model, s, codes).velocity; };
+  const VelocityByFrame before = floor_of(run);
+  ASSERT_EQ(before.tangent_misfit.size(), run.num_frames);
+  // Tolerance: the device sums are of the working precision's J (float: 6e-8 relative each), and the floor is a
+  // difference of two sums a few times its size here; 1e-5 of |v|^2 allows both in float, 1e-10 in double.
+  const double tolerance = sizeof(real_t) == 4 ? 1e-5 : 1e-10;
+  for (std::size_t f = 0; f < run.num_frames; ++f) {
+    const auto J = tangent_at(model, run, int(f), codes);
+    double JJ = 0, Jv = 0, vv = 0;
+    for (std::size_t i = 0; i < J.size(); ++i) {
+      const double v = run.v[f * J.size() + i];
+      JJ += J[i] * J[i], Jv += J[i] * v, vv += v * v;
+    }
+    EXPECT_NEAR(before.norm[f], vv, 1e-12 * vv);
+    EXPECT_NEAR(before.tangent_misfit[f], vv - Jv * Jv / JJ, tolerance * vv) << "frame " << f;
+    EXPECT_LE(before.tangent_misfit[f], before.rate_misfit[f] * (1 + tolerance)) << "frame " << f;
+    for (std::size_t i = 0; i < J.size(); ++i) run.v[f * J.size() + i] = (0.5 + 0.1 * f) * J[i];
+  }
+  const VelocityByFrame inside = floor_of(run);
+  for (std::size_t f = 0; f < run.num_frames; ++f) {
+    EXPECT_LT(inside.tangent_misfit[f], tolerance * inside.norm[f]) << "frame " << f;
+    EXPECT_GT(inside.rate_misfit[f], 1e-3 * inside.norm[f]) << "frame " << f;
+  }
+  EXPECT_LT(inside.tangent_velocity_error(), std::sqrt(tolerance));
+  EXPECT_GT(before.tangent_velocity_error(), 0.0);
+}
+
 TEST(Trainer, FitsATwistingBar) {
   const TrainingData data = twisting_bar_data();
   const Model model = train_model(data, small_settings(), "", false);
@@ -131,7 +180,7 @@ TEST(Trainer, FitsATwistingBar) {
   // wrong normal equations stops at its start, the closest training code, where the small moves descend.
   const Snapshot& unseen = data.test.runs.front();
   const auto position_error = [&](const std::vector<double>& codes) {
-    return reconstruction_errors(model, unseen, codes).metrics().position_error;
+    return reconstruction_errors(model, unseen, codes).errors.metrics().position_error;
   };
   const std::vector<double> projected = project_codes(model, unseen);
   const auto [lowest, highest] = std::minmax_element(model.codes.begin(), model.codes.end());
@@ -141,6 +190,7 @@ TEST(Trainer, FitsATwistingBar) {
     for (double& code : moved) code += move;
     EXPECT_GT(position_error(moved), position_error(projected)) << "codes moved by " << move;
   }
+  expect_tangent_floor(model, unseen, projected);
 }
 
 // RMS of the model's velocity gradient Fdot F^-1 (codes and stencil rates of the training snapshots) against the

@@ -165,34 +165,56 @@ void resume_from(const std::string& checkpoint_path, Model& model, OptimizerStat
   optimizer = saved;
 }
 
+namespace {
+
+void append(VelocityByFrame& all, const VelocityByFrame& run) {
+  for (auto [to, from] : {std::pair{&all.time, &run.time},
+                          {&all.rate_misfit, &run.rate_misfit},
+                          {&all.tangent_misfit, &run.tangent_misfit},
+                          {&all.norm, &run.norm}})
+    to->insert(to->end(), from->begin(), from->end());
+}
+
+}  // namespace
+
 void set_errors(Model& model, const TrainingData& data, const std::vector<int>& validation_points,
                 const TrainingProgress& final, SteadyClock::time_point start, const TrainingCallbacks& callbacks) {
   const auto& runs = data.train.runs;
   const int r = model.latent_dim;
   say(callbacks, "evaluating the reconstruction errors");
   ErrorAccumulator train_all, train_validation, test_all;
+  VelocityByFrame train_velocity, test_velocity;  // the runs' frames one after the other
   nlohmann::json test_runs = nlohmann::json::array();
   for (std::size_t run = 0, base = 0; run < runs.size(); base += runs[run].num_frames, ++run) {
     const std::vector<double> codes(model.codes.begin() + base * r,
                                     model.codes.begin() + (base + runs[run].num_frames) * r);
-    train_all.merge(reconstruction_errors(model, runs[run], codes));
+    const auto errors = reconstruction_errors(model, runs[run], codes);
+    train_all.merge(errors.errors);
+    append(train_velocity, errors.velocity);
     if (!validation_points.empty())
-      train_validation.merge(reconstruction_errors(model, runs[run], codes, validation_points));
+      train_validation.merge(reconstruction_errors(model, runs[run], codes, validation_points).errors);
   }
   for (std::size_t run = 0; run < data.test.runs.size(); ++run) {
     say(callbacks, "projecting test run " + data.test.files[run]);
     const auto codes = project_codes(model, data.test.runs[run]);
     const auto errors = reconstruction_errors(model, data.test.runs[run], codes);
-    test_all.merge(errors);
-    test_runs.push_back({{"file", data.test.files[run]}, {"errors", to_json(errors.metrics())}});
+    test_all.merge(errors.errors);
+    append(test_velocity, errors.velocity);
+    auto run_errors = to_json(errors.errors.metrics());
+    run_errors["tangent_velocity_error"] = errors.velocity.tangent_velocity_error();
+    run_errors["frames"] = errors.velocity.frames_json();
+    test_runs.push_back({{"file", data.test.files[run]}, {"errors", run_errors}});
   }
-  model.errors = {{"train", to_json(train_all.metrics())},
+  auto train_errors = to_json(train_all.metrics());
+  train_errors["tangent_velocity_error"] = train_velocity.tangent_velocity_error();
+  model.errors = {{"train", train_errors},
                   {"training_seconds", seconds_since(start)},
                   {"training_samples_per_s", final.samples_per_second},  // the epochs alone, validation included
                   {"final_loss", {{"train", final.train.total}, {"validation", final.validation.total}}}};
   if (!validation_points.empty()) model.errors["validation_points"] = to_json(train_validation.metrics());
   if (!data.test.runs.empty()) {
     model.errors["test"] = to_json(test_all.metrics());
+    model.errors["test"]["tangent_velocity_error"] = test_velocity.tangent_velocity_error();
     model.errors["test_runs"] = test_runs;
   }
 }
