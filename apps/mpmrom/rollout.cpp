@@ -290,6 +290,10 @@ void add_rollout(CLI::App& app, Commands& commands) {
   command->add_flag("--galerkin-transfer", o->rom_settings.galerkin_transfer,
                     "With --galerkin-strain grid: carry each sample's momentum through its grid nodes as MPM's "
                     "transfer does, instead of along the manifold's tangent");
+  command->add_flag("--galerkin-node-average", o->rom_settings.galerkin_node_average,
+                    "With --galerkin-strain grid: the stress and the loads work against each stencil node's dg/dxhat "
+                    "at the mass centroid of the material it receives (as G2P and the projection average the grid's "
+                    "change), instead of at the node");
   add_defaulted(command, "--rate-damping", o->rom_settings.rate_damping,
                 "Tikhonov weight toward the previous latent rate, relative to the normal matrix's mean eigenvalue");
   command->add_option("--max-condition", o->rom_settings.max_condition,

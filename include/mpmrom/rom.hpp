@@ -87,6 +87,10 @@ struct RomSettings {
   GalerkinStrain galerkin_strain = GalerkinStrain::Continuum;  // --method galerkin's energy (--galerkin-strain)
   // With the grid strain: the momentum carried through the stencil's nodes as MPM's transfer carries it.
   bool galerkin_transfer = false;
+  // With the grid strain: each stencil node's test function (the virtual velocity its stress and load work against)
+  // is dg/dxhat at the mass centroid of the material it receives, as G2P and the projection average the grid's
+  // change over a node's particles, instead of at the node itself.
+  bool galerkin_node_average = false;
   double max_condition = 0;   // regularise the normal equations above this estimate (0: 0.01 / epsilon)
   double regularization = 0;  // mu = regularization * trace / r (0: 100 epsilon)
   // Safeguards and detectors (docs/stability.md).

@@ -131,6 +131,7 @@ nlohmann::json RomSettings::to_json() const {
           {"cubature_target", to_string(cubature_target)},
           {"galerkin_strain", to_string(galerkin_strain)},
           {"galerkin_transfer", galerkin_transfer},
+          {"galerkin_node_average", galerkin_node_average},
           {"max_condition", max_condition},
           {"regularization", regularization},
           {"regularize", regularize},
@@ -168,6 +169,8 @@ void RomSettings::validate() const {
   if (galerkin_transfer && galerkin_strain != GalerkinStrain::Grid)
     throw std::invalid_argument(
         "--galerkin-transfer needs --galerkin-strain grid (it carries momentum through its nodes)");
+  if (galerkin_node_average && galerkin_strain != GalerkinStrain::Grid)
+    throw std::invalid_argument("--galerkin-node-average needs --galerkin-strain grid (it weighs the grid's nodes)");
   if (newton_iterations < 1) throw std::invalid_argument("--newton-iterations must be >= 1");
   if (max_condition < 0 || regularization < 0)
     throw std::invalid_argument("--max-condition and --regularization must be >= 0");

@@ -181,6 +181,7 @@ std::unique_ptr<impl::BatchStepperBase> grid_target_stepper(const Model& model, 
   grid.cubature_target = CubatureTarget::Own;
   grid.galerkin_strain = GalerkinStrain::Continuum;
   grid.galerkin_transfer = false;
+  grid.galerkin_node_average = false;
   return snapshot_stepper(model, scene_path, scene, grid, cases, points);
 }
 

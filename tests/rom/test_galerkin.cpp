@@ -5,6 +5,7 @@
 
 #include <Kokkos_Core.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <vector>
@@ -111,7 +112,8 @@ class GalerkinForce : public ::testing::Test {
   // The kernel's reduced force per unit mass at each sample (S * r), with the grid strain when rows are given;
   // on_teams: then again by TeamGalerkinSampleTerms (a team per sample) from the samples' kinematics the first pass
   // left.
-  std::vector<double> reduced_forces(const std::vector<double>& rows, bool on_teams = false) const {
+  std::vector<double> reduced_forces(const std::vector<double>& rows, bool on_teams = false,
+                                     bool node_average = false) const {
     using ExecutionSpace = Kokkos::DefaultExecutionSpace;
     using MemorySpace = ExecutionSpace::memory_space;
     rom::RolloutLoads load{};
@@ -174,6 +176,7 @@ class GalerkinForce : public ::testing::Test {
                                                                  node_u,
                                                                  node_dg,
                                                                  grid};
+    terms.node_average = node_average;
     Kokkos::parallel_reduce(Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>>(0, S), terms,
                             Kokkos::Max<real_t>(fastest));
     if (on_teams) {
@@ -227,6 +230,7 @@ TEST_F(GalerkinForce, GridStrainForceIsMinusItsEnergyGradientPlusTheLoads) {
     const std::size_t s = i / 27;
     for (int d = 0; d < 3; ++d) row[d] = X[3 * s + d] + 0.01 * std::sin(double(7 * i + d));  // a centroid nearby
     for (int d = 0; d < 3; ++d) row[3 + d] = (i + d) % 5 == 0 ? 0 : 1;                       // some axes held
+    for (int d = 0; d < 3; ++d) row[6 + d] = row[d];  // the test function where the node moves: an energy's
   }
   expect_energy_gradient(reduced_forces(rows), [&](const double* xhat) {
     return grid_elastic_energy(X, volume, rows, grid, xhat, material_double);
@@ -238,6 +242,54 @@ TEST_F(GalerkinForce, GridStrainForceIsMinusItsEnergyGradientPlusTheLoads) {
     EXPECT_NEAR(on_teams[e], one_thread[e],
                 16 * std::numeric_limits<real_t>::epsilon() * (1 + std::fabs(one_thread[e])))
         << "entry " << e;
+}
+
+// With the node average the stress and the loads work against test functions taken elsewhere than where the nodes
+// move (rows 6-8): per sample, minus the derivative of its energy along the strain those test functions give, plus the
+// loads against their interpolation sum_n N_n(X_s) dg/dxhat(row 6-8 of n); no energy's gradient (Petrov-Galerkin).
+TEST_F(GalerkinForce, NodeAverageWorksAgainstItsTestFunctions) {
+  std::vector<double> rows(std::size_t(S) * 27 * impl::grid_strain_node_values), test_rows(rows.size());
+  for (std::size_t i = 0; i < rows.size() / impl::grid_strain_node_values; ++i) {
+    double* row = &rows[i * impl::grid_strain_node_values];
+    const std::size_t s = i / 27;
+    for (int d = 0; d < 3; ++d) row[d] = X[3 * s + d] + 0.01 * std::sin(double(7 * i + d));
+    for (int d = 0; d < 3; ++d) row[3 + d] = (i + d) % 5 == 0 ? 0 : 1;
+    for (int d = 0; d < 3; ++d) row[6 + d] = row[d] + 0.03 * std::cos(double(5 * i + d));  // a centroid elsewhere
+    std::copy(row, row + impl::grid_strain_node_values, &test_rows[i * impl::grid_strain_node_values]);
+    for (int d = 0; d < 3; ++d) test_rows[i * impl::grid_strain_node_values + d] = row[6 + d];
+  }
+  const std::vector<double> q = reduced_forces(rows, false, true);
+  const double h = 1e-5, eps = std::numeric_limits<real_t>::epsilon();
+  for (int s = 0; s < S; ++s) {
+    const double* strain_rows = &rows[std::size_t(s) * 27 * impl::grid_strain_node_values];
+    const double* tests = &test_rows[std::size_t(s) * 27 * impl::grid_strain_node_values];
+    const Mat3<double> F = grid_strain(&X[3 * s], strain_rows, grid, xhat_host);
+    const auto stencil =
+        quadratic_stencil(Vec3<double>{{X[3 * s], X[3 * s + 1], X[3 * s + 2]}},
+                          Vec3<double>{{grid.origin[0], grid.origin[1], grid.origin[2]}}, 1 / double(grid.dx));
+    const double Z = X[3 * s + 2];
+    const double body[3] = {Z >= 0.25 ? 1.0 : 0.0, Z >= 0.25 ? 2.0 : 0.0, (Z >= 0.25 ? 3.0 : 0.0) - 9.81};
+    for (int k = 0; k < r; ++k) {
+      double unit[r] = {0, 0, 0};
+      unit[k] = 1;  // the bending map's u is linear in xhat: its strain at a unit xhat is dF/dxhat_k
+      Mat3<double> dF = grid_strain(&X[3 * s], tests, grid, unit), plus = F, minus = F;
+      for (int a = 0; a < 3; ++a) dF(a, a) -= 1;
+      for (int a = 0; a < 3; ++a)
+        for (int c = 0; c < 3; ++c) plus(a, c) += h * dF(a, c), minus(a, c) -= h * dF(a, c);
+      const double elastic =
+          -volume[s] * (energy_density(material_double, plus) - energy_density(material_double, minus)) / (2 * h);
+      double load = 0;  // the loads against the interpolated test functions (u_k = z^2, z^2, z along axis k)
+      for (int n = 0; n < 27; ++n) {
+        const double* row = tests + n * impl::grid_strain_node_values;
+        load += stencil.weight(n / 9, (n / 3) % 3, n % 3) * row[3 + k] * (k < 2 ? row[2] * row[2] : row[2]) * body[k];
+      }
+      // Per sample, no sum to average over: the central difference's truncation and rounding (each ~1e-9 of the
+      // terms at h = 1e-5, expect_energy_gradient) get 1e-8; the kernel's rounding in real_t 300 eps.
+      const double expected = elastic + mass[s] * load, scale = std::fabs(elastic) + mass[s] * std::fabs(load);
+      EXPECT_NEAR(mass[s] * q[std::size_t(s * r + k)], expected, (1e-8 + 300 * eps) * scale)
+          << "sample " << s << ", xhat component " << k;
+    }
+  }
 }
 
 // On a lattice of equal masses: an interior node's centroid is the node, a node beyond the body's face has its
@@ -258,7 +310,7 @@ TEST(GridStrainStencils, CentroidsHeldNodesAndLinearFieldsOnALattice) {
   loads.dirichlet_window[0] = 0;
   loads.dirichlet_window[1] = real_t(1e30);
   const std::vector<double> samples = {0.025, 0.025, 0.025, 0.225, 0.025, -0.225};
-  const auto found = impl::grid_strain_nodes(grid, loads, 1.0, X, mass, samples, false);
+  const auto found = impl::grid_strain_nodes(grid, loads, 1.0, X, mass, samples, false, false);
   ASSERT_EQ(found.stencils.size(), 2u * 27);
   // Both stencils' x = 0.1 .. 0.3 nodes on the z = -0.1 layer are shared: 54 - 3 distinct nodes.
   EXPECT_EQ(found.nodes.size(), 51u * impl::grid_strain_node_values);
@@ -268,7 +320,9 @@ TEST(GridStrainStencils, CentroidsHeldNodesAndLinearFieldsOnALattice) {
                 found.nodes.begin() + (i + 1) * impl::grid_strain_node_values);
   // Centroids are weighted means of coordinates within 0.3 of the node: rounding of a few eps of 1 in real_t.
   const double tolerance = 50 * std::numeric_limits<real_t>::epsilon();
-  const auto node = [&](int s, int n) { return &rows[(std::size_t(s) * 27 + std::size_t(n)) * 6]; };
+  const auto node = [&](int s, int n) {
+    return &rows[(std::size_t(s) * 27 + std::size_t(n)) * impl::grid_strain_node_values];
+  };
   // Sample 0 at the lattice's centre: its stencil's nodes (-0.1 .. 0.1) see symmetric lattices.
   for (int n = 0; n < 27; ++n) {
     const double expected[3] = {-0.1 + 0.1 * (n / 9), -0.1 + 0.1 * ((n / 3) % 3), -0.1 + 0.1 * (n % 3)};
@@ -281,6 +335,19 @@ TEST(GridStrainStencils, CentroidsHeldNodesAndLinearFieldsOnALattice) {
   // ... and near the bottom: its z = -0.3 nodes are held on every axis, the others free.
   for (int n = 0; n < 27; ++n)
     for (int d = 0; d < 3; ++d) EXPECT_EQ(node(1, n)[3 + d], n % 3 == 0 ? 0.0 : 1.0) << "node " << n;
+  // With APIC and the node average: the strain's rows at the nodes themselves, the test functions' at the centroids
+  // of the PIC rows above (the same sums).
+  const auto averaged = impl::grid_strain_nodes(grid, loads, 1.0, X, mass, samples, true, true);
+  ASSERT_EQ(averaged.nodes.size(), found.nodes.size());
+  for (std::size_t i = 0; i < found.nodes.size() / impl::grid_strain_node_values; ++i) {
+    const double* pic = &found.nodes[i * impl::grid_strain_node_values];
+    const double* apic = &averaged.nodes[i * impl::grid_strain_node_values];
+    for (int d = 0; d < 3; ++d) {
+      EXPECT_EQ(pic[6 + d], pic[d]) << "node " << i;  // no node average: the test function where the node moves
+      EXPECT_EQ(apic[6 + d], pic[d]) << "node " << i;
+      EXPECT_NEAR(apic[d], std::round(apic[d] / 0.1) * 0.1, tolerance) << "node " << i;  // a grid node
+    }
+  }
   // A stretch along z, linear in X (the bending map at xhat = (0, 0, c)), at the centre: F = diag(1, 1, 1 + c).
   const double xhat[3] = {0, 0, 0.2};
   const Mat3<double> F = grid_strain(&samples[0], node(0, 0), grid, xhat);

@@ -295,7 +295,19 @@ TEST_F(Resume, RolloutReusingAnEarlierReductionRepeatsIt) {
   const std::string refused = (dir_ / "refused.h5").string();
   EXPECT_EQ(rollout(model, refused, {"--reduction", fitted, "--galerkin-strain", "continuum"}), 1);
   EXPECT_EQ(rollout(other_model, refused, {"--reduction", fitted}), 1);
+  EXPECT_EQ(rollout(model, refused, {"--reduction", fitted, "--galerkin-node-average"}), 1);
   EXPECT_FALSE(fs::exists(refused));
+  // A file written before a setting existed (here: its key removed) serves that setting at its default only.
+  RomFile older = load_rom(fitted);
+  older.settings.erase("galerkin_node_average");
+  const Model loaded = load_model(model);
+  const Scene scene = load_scene(scene_);
+  RomSettings settings = rom_defaults(RomMethod::Galerkin);  // as the command line's flags above
+  settings.samples = 6;
+  settings.energy_growth = 0;
+  EXPECT_NO_THROW(reduction_from_rom(older, fitted, loaded, scene, settings));
+  settings.galerkin_node_average = true;
+  EXPECT_THROW(reduction_from_rom(older, fitted, loaded, scene, settings), std::runtime_error);
 }
 
 }  // namespace

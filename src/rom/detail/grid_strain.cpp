@@ -48,7 +48,7 @@ void require_resting_boundary(const rom::RolloutLoads& loads, double end_time) {
 // The node's row of GridStrainNodes::nodes: where it takes its velocity from, and its free axes.
 void node_row(const GridGeometry<real_t>& grid, const GridBoundary& boundary,
               const std::unordered_map<long, std::vector<int>>& by_base, const std::vector<double>& X,
-              const std::vector<double>& mass, const int idx[3], bool apic, double* row) {
+              const std::vector<double>& mass, const int idx[3], bool apic, bool node_average, double* row) {
   double weight = 0, centroid[3] = {0, 0, 0};
   // A point reaches this node from the stencils based at idx - (0..2) on each axis.
   for (int o = 0; o < 27; ++o) {
@@ -70,6 +70,7 @@ void node_row(const GridGeometry<real_t>& grid, const GridBoundary& boundary,
   for (int d = 0; d < 3; ++d) {
     row[d] = apic ? double(grid.position(idx[0], idx[1], idx[2])[d]) : centroid[d] / weight;
     row[3 + d] = double(free[d]);
+    row[6 + d] = node_average ? centroid[d] / weight : row[d];
   }
 }
 
@@ -77,7 +78,7 @@ void node_row(const GridGeometry<real_t>& grid, const GridBoundary& boundary,
 
 GridStrainNodes grid_strain_nodes(const GridGeometry<real_t>& grid, const rom::RolloutLoads& loads, double end_time,
                                   const std::vector<double>& X, const std::vector<double>& mass,
-                                  const std::vector<double>& sample_X, bool apic) {
+                                  const std::vector<double>& sample_X, bool apic, bool node_average) {
   require_resting_boundary(loads, end_time);
   const auto by_base = points_by_base(grid, X);
   const std::size_t S = sample_X.size() / 3;
@@ -94,7 +95,7 @@ GridStrainNodes grid_strain_nodes(const GridGeometry<real_t>& grid, const rom::R
       const auto [at, added] = slot.try_emplace(grid.index(idx[0], idx[1], idx[2]), int(slot.size()));
       if (added) {
         result.nodes.resize(result.nodes.size() + grid_strain_node_values);
-        node_row(grid, loads.boundary, by_base, X, mass, idx, apic,
+        node_row(grid, loads.boundary, by_base, X, mass, idx, apic, node_average,
                  &result.nodes[result.nodes.size() - grid_strain_node_values]);
       }
       result.stencils[s * 27 + std::size_t(n)] = at->second;

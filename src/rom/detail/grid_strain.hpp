@@ -11,13 +11,14 @@
 namespace mpmrom::impl {
 
 // Values per node in GridStrainNodes::nodes.
-inline constexpr int grid_strain_node_values = 6;
+inline constexpr int grid_strain_node_values = 9;
 
 // The distinct nodes of the samples' stencils, each evaluated once a step however many samples share it.
 struct GridStrainNodes {
-  // Per node (row-major (nodes, 6)): where the node takes its velocity from, Xbar (the node's position, or with PIC
+  // Per node (row-major (nodes, 9)): where the node takes its velocity from, Xbar (the node's position, or with PIC
   // the mass-weighted centroid, with the node's B-spline weights, of the reference points whose momentum it receives),
-  // and per axis 1 where the node moves freely, 0 where the boundary holds it at rest.
+  // per axis 1 where the node moves freely, 0 where the boundary holds it at rest, and where its test function
+  // dg/dxhat is taken (Xbar, or with node_average that centroid).
   std::vector<double> nodes;
   std::vector<int> stencils;  // (samples, 27): each sample's stencil nodes (QuadraticStencil's a, b, c order)
 };
@@ -25,11 +26,12 @@ struct GridStrainNodes {
 // The nodes of the stencils of the samples at sample_X (row-major (S, 3)) in the reference configuration of the
 // points X, mass (row-major (n, 3) and (n)). With APIC a node's velocity is the material's velocity field at the
 // node itself (its affine part extrapolates it beyond the free surface): Xbar is then the node's position; with PIC
-// it is the centroid. Throws std::invalid_argument when a Dirichlet region moves or is not
+// it is the centroid. node_average: the test function at the centroid whatever the transfer (RomSettings::
+// galerkin_node_average). Throws std::invalid_argument when a Dirichlet region moves or is not
 // active over [0, end_time], which a strain measured from the rest configuration cannot follow.
 GridStrainNodes grid_strain_nodes(const GridGeometry<real_t>& grid, const rom::RolloutLoads& loads, double end_time,
                                   const std::vector<double>& X, const std::vector<double>& mass,
-                                  const std::vector<double>& sample_X, bool apic);
+                                  const std::vector<double>& sample_X, bool apic, bool node_average);
 
 // The grid strain on the device: its nodes and stencils, and room for each step's node displacements and dg/dxhat
 // (GridStrainNodeKinematics) of the given rollouts; all empty when there is no grid strain.

@@ -87,8 +87,9 @@ class BatchStepper final : public BatchStepperBase {
     samples_force_weight_ = upload<Vector>("mpmrom::rom::samples_force_weight", force_weight_samples, S);
     if (galerkin_) sample_force_ = Matrix("mpmrom::rom::sample_force", B, std::size_t(S) * r);
     if (galerkin_ && settings.galerkin_strain == GalerkinStrain::Grid)
-      strain_ = upload_grid_strain(
-          grid_strain_nodes(grid_, host_loads.at(0), times_.back(), model.X, model.mass, X_samples, apic_), B, r);
+      strain_ = upload_grid_strain(grid_strain_nodes(grid_, host_loads.at(0), times_.back(), model.X, model.mass,
+                                                     X_samples, apic_, settings.galerkin_node_average),
+                                   B, r);
     quadrature_x_ = upload<Matrix>("mpmrom::rom::quadrature_x", h.quadrature_x, h.quadrature_weight.size(), 3);
     quadrature_w_ = upload<Vector>("mpmrom::rom::quadrature_w", h.quadrature_weight, h.quadrature_weight.size());
     nodes_ = upload_indices("mpmrom::rom::nodes", h.nodes);
@@ -317,7 +318,8 @@ class BatchStepper final : public BatchStepperBase {
       Kokkos::parallel_for("mpmrom::rom::grid_strain_nodes",
                            teams(space, items, nodes_shape_, nodes_shape_.threads, samples_scratch_),
                            rom::TeamGridStrainNodeKinematics<Manifold, ExecutionSpace>{
-                               manifold_, strain_.nodes, xhat_, strain_.u, strain_.dg, nodes_shape_, samples_scratch_});
+                               manifold_, strain_.nodes, xhat_, strain_.u, strain_.dg, nodes_shape_, samples_scratch_,
+                               settings_.galerkin_node_average});
   }
 
   // Algorithms 1 and 2 up to the projection: sources, node velocities, the samples' velocities from the grid.
@@ -373,16 +375,16 @@ class BatchStepper final : public BatchStepperBase {
   // The Galerkin step's per-sample forces, momenta and the fastest sample; the grid strain's sums on teams on GPUs.
   void galerkin_terms(const ExecutionSpace& space, real_t t, real_t dt, bool strain_on_teams) {
     const rom::GalerkinSampleTerms<Manifold, MemorySpace> terms{
-        manifold_,      samples_X_,
-        xhat_,          xhatdot_,
-        loads_,         material_,
-        density_,       t,
-        sample_x_,      sample_v_,
-        sample_J_,      sample_force_,
-        flags_,         strain_.stencils,
-        strain_.u,      strain_.dg,
-        grid_,          settings_.galerkin_transfer ? dt : real_t(0),
-        strain_on_teams};
+        manifold_,       samples_X_,
+        xhat_,           xhatdot_,
+        loads_,          material_,
+        density_,        t,
+        sample_x_,       sample_v_,
+        sample_J_,       sample_force_,
+        flags_,          strain_.stencils,
+        strain_.u,       strain_.dg,
+        grid_,           settings_.galerkin_transfer ? dt : real_t(0),
+        strain_on_teams, settings_.galerkin_node_average};
     const auto fastest = Kokkos::Max<real_t, MemorySpace>(fastest_sample_);
     if (strain_on_teams) {
       using TeamTerms = rom::TeamGalerkinSampleTerms<Manifold, ExecutionSpace>;

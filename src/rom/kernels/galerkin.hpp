@@ -28,12 +28,13 @@
 
 namespace mpmrom::rom {
 
-// The grid strain's nodes (GalerkinStrain::Grid): each node's displacement u = g(Xbar) - Xbar and dg/dxhat at the
-// material point Xbar it moves with, zero on the axes the boundary holds.
+// The grid strain's nodes (GalerkinStrain::Grid): each node's displacement u = g(Xbar) - Xbar at the material point
+// Xbar it moves with and its test function dg/dxhat, at Xbar or (RomSettings::galerkin_node_average) at the centroid
+// of its material, both zero on the axes the boundary holds.
 template <class Manifold, class MemorySpace>
 struct GridStrainNodeKinematics {
   Manifold manifold;
-  Kokkos::View<const real_t**, Kokkos::LayoutRight, MemorySpace> nodes;  // (nodes, 6): grid_strain_nodes' rows
+  Kokkos::View<const real_t**, Kokkos::LayoutRight, MemorySpace> nodes;  // (nodes, 9): grid_strain_nodes' rows
   BatchMatrix<MemorySpace> xhat;
   BatchVectors<MemorySpace> node_u;     // out: (rollouts, nodes, 3)
   BatchJacobians<MemorySpace> node_dg;  // out: (rollouts, nodes, 3, r)
@@ -46,6 +47,11 @@ struct GridStrainNodeKinematics {
     const real_t Xbar[3] = {nodes(i, 0), nodes(i, 1), nodes(i, 2)};
     real_t g[3];
     manifold.position_and_tangent(Xbar, &xhat(b, 0), g, &node_dg(b, i, 0, 0));
+    const real_t Xtest[3] = {nodes(i, 6), nodes(i, 7), nodes(i, 8)};
+    if (Xtest[0] != Xbar[0] || Xtest[1] != Xbar[1] || Xtest[2] != Xbar[2]) {
+      real_t unused[3];
+      manifold.position_and_tangent(Xtest, &xhat(b, 0), unused, &node_dg(b, i, 0, 0));
+    }
     for (int a = 0; a < 3; ++a) {
       const real_t free = nodes(i, 3 + a);
       node_u(b, i, a) = free * (g[a] - Xbar[a]);
@@ -62,12 +68,13 @@ struct TeamGridStrainNodeKinematics {
   using member_type = typename Kokkos::TeamPolicy<ExecutionSpace>::member_type;
 
   Manifold manifold;
-  Kokkos::View<const real_t**, Kokkos::LayoutRight, MemorySpace> nodes;  // (nodes, 6): grid_strain_nodes' rows
+  Kokkos::View<const real_t**, Kokkos::LayoutRight, MemorySpace> nodes;  // (nodes, 9): grid_strain_nodes' rows
   BatchMatrix<MemorySpace> xhat;
   BatchVectors<MemorySpace> node_u;     // out: (rollouts, nodes, 3)
   BatchJacobians<MemorySpace> node_dg;  // out: (rollouts, nodes, 3, r)
   TeamShape shape;
-  TeamScratch scratch;  // SampleKinematics::scratch_for's
+  TeamScratch scratch;        // SampleKinematics::scratch_for's
+  bool node_average = false;  // the test functions at the rows' centroids: a second pass of the network
 
   KOKKOS_INLINE_FUNCTION void operator()(const member_type& member) const {
     const int num_nodes = int(nodes.extent(0)), r = int(xhat.extent(1));
@@ -77,10 +84,16 @@ struct TeamGridStrainNodeKinematics {
     const real_t Xbar[3] = {nodes(i, 0), nodes(i, 1), nodes(i, 2)};
     const real_t* g = team_point_position_and_tangent(manifold, member, shape, scratch, active, Xbar, &xhat(b, 0),
                                                       active ? &node_dg(b, i, 0, 0) : nullptr);
+    Kokkos::parallel_for(Kokkos::ThreadVectorRange(member, active ? 3 : 0),
+                         [&](const int a) { node_u(b, i, a) = nodes(i, 3 + a) * (g[a] - Xbar[a]); });
+    if (node_average) {  // the whole team or none: the network's passes hold team barriers
+      member.team_barrier();
+      const real_t Xtest[3] = {nodes(i, 6), nodes(i, 7), nodes(i, 8)};
+      team_point_position_and_tangent(manifold, member, shape, scratch, active, Xtest, &xhat(b, 0),
+                                      active ? &node_dg(b, i, 0, 0) : nullptr);
+    }
     Kokkos::parallel_for(Kokkos::ThreadVectorRange(member, active ? 3 : 0), [&](const int a) {
-      const real_t free = nodes(i, 3 + a);
-      node_u(b, i, a) = free * (g[a] - Xbar[a]);
-      for (int k = 0; k < r; ++k) node_dg(b, i, a, k) *= free;
+      for (int k = 0; k < r; ++k) node_dg(b, i, a, k) *= nodes(i, 3 + a);
     });
   }
 };
@@ -110,6 +123,9 @@ struct GalerkinSampleTerms {
   // With the grid strain: sample_x and sample_J already hold the samples' positions and dg/dxhat (SampleKinematics on
   // teams, GPUs), else the network runs here.
   bool kinematics_given = false;
+  // With the grid strain: the loads, like the stress, work against the stencil's test functions, sum_i N_i(X_s)
+  // node_dg_i (RomSettings::galerkin_node_average), instead of against J_s.
+  bool node_average = false;
 
   KOKKOS_INLINE_FUNCTION void operator()(const long e, real_t& max_speed) const {
     const int num_samples = int(X.extent(0));
@@ -160,9 +176,7 @@ struct GalerkinSampleTerms {
       real_t power = 0;  // P : dF/dxhat_k
       for (int i = 0; i < 3; ++i)
         for (int j = 0; j < 3; ++j) power += P(i, j) * dF[k](i, j);
-      real_t q = -power / density;
-      for (int d = 0; d < 3; ++d) q += sample_J(b, s, d, k) * body[d];
-      sample_force(b, s * r + k) = q;
+      sample_force(b, s * r + k) = plus_load_work(b, s, Xs, k, body, -power / density);
     }
     if (stencils.extent(0) > 0 && transfer_dt > 0) add_transfer(b, s, sample_stencil(Xs), kin);
     for (int d = 0; d < 3; ++d) {
@@ -171,6 +185,23 @@ struct GalerkinSampleTerms {
     }
     const real_t speed = norm(Vec3<real_t>{{kin.v[0], kin.v[1], kin.v[2]}});
     if (speed > max_speed) max_speed = speed;
+  }
+
+  // q plus the load's generalised force along xhat_k per unit mass: body . J_s e_k, or with the node average the
+  // stencil's interpolation of its nodes' test functions (MPM's G2P of the nodes' change, averaged by the projection).
+  KOKKOS_INLINE_FUNCTION real_t plus_load_work(int b, int s, const real_t Xs[3], int k, const Vec3<real_t>& body,
+                                               real_t q) const {
+    real_t work = q;
+    if (!node_average || stencils.extent(0) == 0) {
+      for (int d = 0; d < 3; ++d) work += sample_J(b, s, d, k) * body[d];
+      return work;
+    }
+    const QuadraticStencil<real_t> stencil = sample_stencil(Xs);
+    for (int n = 0; n < 27; ++n) {
+      const real_t w = stencil.weight(n / 9, (n / 3) % 3, n % 3);
+      for (int d = 0; d < 3; ++d) work += w * node_dg(b, stencils(s, n), d, k) * body[d];
+    }
+    return work;
   }
 
   // The manifold's own F at the sample and dF/dxhat_k, the kinematics' Fdot along each unit rate.
