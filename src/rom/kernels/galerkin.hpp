@@ -172,11 +172,13 @@ struct GalerkinSampleTerms {
     const Mat3<real_t> P = first_piola(material, F);
     Vec3<real_t> body = loads(b).force_per_unit_mass({{Xs[0], Xs[1], Xs[2]}}, time);
     for (int d = 0; d < 3; ++d) body[d] += loads(b).gravity[d];
+    const bool through_nodes = node_average && stencils.extent(0) > 0;
+    const QuadraticStencil<real_t> stencil = through_nodes ? sample_stencil(Xs) : QuadraticStencil<real_t>{};
     for (int k = 0; k < r; ++k) {
       real_t power = 0;  // P : dF/dxhat_k
       for (int i = 0; i < 3; ++i)
         for (int j = 0; j < 3; ++j) power += P(i, j) * dF[k](i, j);
-      sample_force(b, s * r + k) = plus_load_work(b, s, Xs, k, body, -power / density);
+      sample_force(b, s * r + k) = plus_load_work(b, s, k, body, through_nodes ? &stencil : nullptr, -power / density);
     }
     if (stencils.extent(0) > 0 && transfer_dt > 0) add_transfer(b, s, sample_stencil(Xs), kin);
     for (int d = 0; d < 3; ++d) {
@@ -187,18 +189,18 @@ struct GalerkinSampleTerms {
     if (speed > max_speed) max_speed = speed;
   }
 
-  // q plus the load's generalised force along xhat_k per unit mass: body . J_s e_k, or with the node average the
-  // stencil's interpolation of its nodes' test functions (MPM's G2P of the nodes' change, averaged by the projection).
-  KOKKOS_INLINE_FUNCTION real_t plus_load_work(int b, int s, const real_t Xs[3], int k, const Vec3<real_t>& body,
-                                               real_t q) const {
+  // q plus the load's generalised force along xhat_k per unit mass: body . J_s e_k, or with the node average (the
+  // sample's stencil given) the stencil's interpolation of its nodes' test functions (MPM's G2P of the nodes' change,
+  // averaged by the projection).
+  KOKKOS_INLINE_FUNCTION real_t plus_load_work(int b, int s, int k, const Vec3<real_t>& body,
+                                               const QuadraticStencil<real_t>* stencil, real_t q) const {
     real_t work = q;
-    if (!node_average || stencils.extent(0) == 0) {
+    if (stencil == nullptr) {
       for (int d = 0; d < 3; ++d) work += sample_J(b, s, d, k) * body[d];
       return work;
     }
-    const QuadraticStencil<real_t> stencil = sample_stencil(Xs);
     for (int n = 0; n < 27; ++n) {
-      const real_t w = stencil.weight(n / 9, (n / 3) % 3, n % 3);
+      const real_t w = stencil->weight(n / 9, (n / 3) % 3, n % 3);
       for (int d = 0; d < 3; ++d) work += w * node_dg(b, stencils(s, n), d, k) * body[d];
     }
     return work;
