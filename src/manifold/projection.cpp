@@ -206,21 +206,26 @@ std::vector<double> project_codes(const Model& model, const Snapshot& run) {
   return codes;
 }
 
-double VelocityByFrame::tangent_velocity_error() const {
-  const double misfit = std::accumulate(tangent_misfit.begin(), tangent_misfit.end(), 0.0);
-  const double total = std::accumulate(norm.begin(), norm.end(), 0.0);
+namespace {
+
+// sqrt(misfit / total), as ErrorAccumulator reports a ratio: 0 for no motion and no misfit, else infinity.
+double relative_error(double misfit, double total) {
   return total > 0 ? std::sqrt(misfit / total) : (misfit > 0 ? INFINITY : 0.0);
 }
 
+}  // namespace
+
+double VelocityByFrame::tangent_velocity_error() const {
+  return relative_error(std::accumulate(tangent_misfit.begin(), tangent_misfit.end(), 0.0),
+                        std::accumulate(norm.begin(), norm.end(), 0.0));
+}
+
 nlohmann::json VelocityByFrame::frames_json() const {
-  const auto ratio = [](double misfit, double total) {
-    return total > 0 ? std::sqrt(misfit / total) : (misfit > 0 ? INFINITY : 0.0);
-  };
   nlohmann::json out = nlohmann::json::array();
   for (std::size_t f = 0; f < time.size(); ++f)
     out.push_back({{"time", time[f]},
-                   {"velocity_error", ratio(rate_misfit[f], norm[f])},
-                   {"tangent_velocity_error", ratio(tangent_misfit[f], norm[f])}});
+                   {"velocity_error", relative_error(rate_misfit[f], norm[f])},
+                   {"tangent_velocity_error", relative_error(tangent_misfit[f], norm[f])}});
   return out;
 }
 
