@@ -27,8 +27,8 @@ struct Options {
   RomSettings rom_settings;
   // "auto": the method's default (rom_defaults).
   std::string rom_method = "point", rom_selection = "auto", rom_projection = "velocity", rom_weights = "auto",
-              cubature_snapshots = "auto", cubature_target = "auto", galerkin_strain = "auto", params_path, rom_path,
-              decode_mode = "none", reduction_path;
+              cubature_snapshots = "auto", cubature_target = "auto", galerkin_strain = "auto", integrator = "auto",
+              params_path, rom_path, decode_mode = "none", reduction_path;
   std::vector<std::string> rom_data;
   double decode_spacing = 0;
   bool rollout_json = false;
@@ -142,6 +142,10 @@ void resolve_settings(Options& o) {
       pick(o.cubature_target, defaults.cubature_target, mpmrom::cubature_target_from_string);
   o.rom_settings.galerkin_strain =
       pick(o.galerkin_strain, defaults.galerkin_strain, mpmrom::galerkin_strain_from_string);
+  // The leapfrog does not take the transfer's gather: auto falls back to symplectic Euler there.
+  const auto integrator =
+      o.rom_settings.galerkin_transfer ? mpmrom::TimeIntegrator::SymplecticEuler : defaults.integrator;
+  o.rom_settings.integrator = pick(o.integrator, integrator, mpmrom::time_integrator_from_string);
   o.rom_settings.validate();
 }
 
@@ -294,6 +298,11 @@ void add_rollout(CLI::App& app, Commands& commands) {
                     "With --galerkin-strain grid: the stress and the loads work against each stencil node's dg/dxhat "
                     "at the mass centroid of the material it receives (as G2P and the projection average the grid's "
                     "change), instead of at the node");
+  add_defaulted(
+      command, "--integrator", o->integrator,
+      "With --method galerkin: its time integrator, symplectic Euler (euler: the force at the step's start) "
+      "or leapfrog (the force half a step on: second order for the same one force a step); auto: leapfrog, euler "
+      "with --galerkin-transfer");
   add_defaulted(command, "--rate-damping", o->rom_settings.rate_damping,
                 "Tikhonov weight toward the previous latent rate, relative to the normal matrix's mean eigenvalue");
   command->add_option("--max-condition", o->rom_settings.max_condition,

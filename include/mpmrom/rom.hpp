@@ -47,6 +47,13 @@ enum class GalerkinStrain { Continuum, Grid };
 GalerkinStrain galerkin_strain_from_string(const std::string& name);  // "continuum" or "grid"
 std::string to_string(GalerkinStrain strain);
 
+// The Galerkin step's time integrator: symplectic Euler (the force at the step's start, then the rate, then the
+// position: first order) or leapfrog (half a step's drift, the force there, the kick, the other half's drift: second
+// order for the same one force a step; docs/rom.md "Time step"). The grid methods step as the grid does.
+enum class TimeIntegrator { SymplecticEuler, Leapfrog };
+TimeIntegrator time_integrator_from_string(const std::string& name);  // "euler" or "leapfrog"
+std::string to_string(TimeIntegrator integrator);
+
 // The samples' weights in the projection: their masses, empirical cubature weights fitted to snapshots, or (Auto) the
 // weights the selection fits with its samples (greedy projection, cubature) and the masses otherwise.
 enum class SampleWeighting { Mass, Cubature, Auto };
@@ -91,6 +98,7 @@ struct RomSettings {
   // is dg/dxhat at the mass centroid of the material it receives, as G2P and the projection average the grid's
   // change over a node's particles, instead of at the node itself.
   bool galerkin_node_average = false;
+  TimeIntegrator integrator = TimeIntegrator::SymplecticEuler;  // --method galerkin's (--integrator)
   double max_condition = 0;   // regularise the normal equations above this estimate (0: 0.01 / epsilon)
   double regularization = 0;  // mu = regularization * trace / r (0: 100 epsilon)
   // Safeguards and detectors (docs/stability.md).
@@ -107,7 +115,7 @@ struct RomSettings {
 
 // The defaults of `method` (docs/rom.md "Defaults"): RomSettings{} for Algorithms 1 and 2; for the Galerkin step its
 // best measured configuration, MPM's strain with the cubature selection fitted to the grid step's force over the
-// training states (the greedy projection fits the grid step of the other two).
+// training states, stepped by the leapfrog (the greedy projection fits the grid step of the other two).
 RomSettings rom_defaults(RomMethod method);
 
 // The weighting settings.weighting stands for: Auto resolved (Cubature for the greedy projection and cubature

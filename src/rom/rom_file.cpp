@@ -374,7 +374,7 @@ HyperReduction reduction_from_rom(const RomFile& rom, const std::string& path, c
   };
   nlohmann::json own = settings.to_json(), stored = rom.settings;
   if (fitted_cfl(own) != fitted_cfl(stored)) refuse("its fits ran at another time step (--cfl)");
-  for (const char* free : {"end_time", "energy_growth", "cfl"}) own.erase(free), stored.erase(free);
+  for (const char* free : {"end_time", "energy_growth", "cfl", "integrator"}) own.erase(free), stored.erase(free);
   // A setting added since the file was written counts at its default: what the builds before it did.
   const nlohmann::json defaults = RomSettings{}.to_json();
   for (const auto& [key, value] : own.items())

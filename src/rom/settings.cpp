@@ -89,6 +89,16 @@ GalerkinStrain galerkin_strain_from_string(const std::string& name) {
 
 std::string to_string(GalerkinStrain strain) { return strain == GalerkinStrain::Continuum ? "continuum" : "grid"; }
 
+TimeIntegrator time_integrator_from_string(const std::string& name) {
+  if (name == "euler") return TimeIntegrator::SymplecticEuler;
+  if (name == "leapfrog") return TimeIntegrator::Leapfrog;
+  throw std::invalid_argument("integrator must be 'euler' or 'leapfrog', not '" + name + "'");
+}
+
+std::string to_string(TimeIntegrator integrator) {
+  return integrator == TimeIntegrator::SymplecticEuler ? "euler" : "leapfrog";
+}
+
 std::string to_string(SampleWeighting weighting) {
   return weighting == SampleWeighting::Mass ? "mass" : weighting == SampleWeighting::Cubature ? "cubature" : "auto";
 }
@@ -101,6 +111,7 @@ RomSettings rom_defaults(RomMethod method) {
     settings.snapshot_source = SnapshotSource::States;
     settings.cubature_target = CubatureTarget::Grid;
     settings.galerkin_strain = GalerkinStrain::Grid;
+    settings.integrator = TimeIntegrator::Leapfrog;
   }
   return settings;
 }
@@ -132,6 +143,7 @@ nlohmann::json RomSettings::to_json() const {
           {"galerkin_strain", to_string(galerkin_strain)},
           {"galerkin_transfer", galerkin_transfer},
           {"galerkin_node_average", galerkin_node_average},
+          {"integrator", to_string(integrator)},
           {"max_condition", max_condition},
           {"regularization", regularization},
           {"regularize", regularize},
@@ -171,6 +183,11 @@ void RomSettings::validate() const {
         "--galerkin-transfer needs --galerkin-strain grid (it carries momentum through its nodes)");
   if (galerkin_node_average && galerkin_strain != GalerkinStrain::Grid)
     throw std::invalid_argument("--galerkin-node-average needs --galerkin-strain grid (it weighs the grid's nodes)");
+  if (integrator == TimeIntegrator::Leapfrog && method != RomMethod::Galerkin)
+    throw std::invalid_argument(
+        "--integrator leapfrog is for --method galerkin (the grid methods step as the grid does)");
+  if (integrator == TimeIntegrator::Leapfrog && galerkin_transfer)
+    throw std::invalid_argument("--integrator leapfrog does not take --galerkin-transfer (its gather is at one state)");
   if (newton_iterations < 1) throw std::invalid_argument("--newton-iterations must be >= 1");
   if (max_condition < 0 || regularization < 0)
     throw std::invalid_argument("--max-condition and --regularization must be >= 0");

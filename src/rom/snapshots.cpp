@@ -182,6 +182,7 @@ std::unique_ptr<impl::BatchStepperBase> grid_target_stepper(const Model& model, 
   grid.galerkin_strain = GalerkinStrain::Continuum;
   grid.galerkin_transfer = false;
   grid.galerkin_node_average = false;
+  grid.integrator = TimeIntegrator::SymplecticEuler;
   return snapshot_stepper(model, scene_path, scene, grid, cases, points);
 }
 
@@ -388,6 +389,8 @@ CubatureSnapshots cubature_snapshots(const Scene& scene, const RomSettings& sett
   if (settings.snapshot_source != SnapshotSource::Full) {
     snapshots.scene_path = scene.source_path;
     snapshots.settings = settings;
+    // The fits take each step's terms at its own state (a leapfrog's are half a step on): the same for either.
+    snapshots.settings.integrator = TimeIntegrator::SymplecticEuler;
     // The Galerkin step's weights reproduce a force, which the grid step measures at the scene's time step and not
     // beyond it (its velocity change over a longer step is no longer the force: docs/results/rom/README.md).
     if (settings.method == RomMethod::Galerkin && settings.cfl > scene.cfl) snapshots.settings.cfl = 0;

@@ -20,6 +20,7 @@
 #include "rom/detail/grid_strain.hpp"
 #include "manifold/device_data.hpp"
 #include "rom/kernels/galerkin.hpp"
+#include "rom/kernels/leapfrog.hpp"
 #include "rom/kernels/projection.hpp"
 #include "rom/outcome.hpp"
 #include "rom/kernels/sources.hpp"
@@ -55,6 +56,7 @@ class BatchStepper final : public BatchStepperBase {
         I_(int(h.nodes.size())),
         point_method_(settings.method == RomMethod::MaterialPoint),
         galerkin_(settings.method == RomMethod::Galerkin),
+        leapfrog_(galerkin_ && settings.integrator == TimeIntegrator::Leapfrog),
         K_(point_method_ ? int(h.source_points.size()) : int(h.quadrature_weight.size())),
         grid_(grid_for_scene(scene)),
         material_(material_for_scene(scene)),
@@ -109,6 +111,7 @@ class BatchStepper final : public BatchStepperBase {
     sources_ = rom::make_sources<MemorySpace>("mpmrom::rom::sources", K, B);
     sample_x_ = Cube("mpmrom::rom::sample_x", B, S, 3);
     sample_v_ = Cube("mpmrom::rom::sample_v", B, S, 3);
+    if (leapfrog_) start_v_ = Cube("mpmrom::rom::start_v", B, S, 3);
     sample_J_ = Quad("mpmrom::rom::sample_J", B, S, 3, r);
     node_v_ = Cube("mpmrom::rom::node_v", B, I_, 3);
     trial_x_ = Cube("mpmrom::rom::trial_x", B, S, 3);
@@ -168,7 +171,7 @@ class BatchStepper final : public BatchStepperBase {
     const long substeps = all_stopped ? 0 : std::max(1L, long(std::ceil((target - time) / dt_max - 1e-9)));
     const double dt_interval = substeps > 0 ? (target - time) / double(substeps) : 0.0;
     for (long sub = 0; sub < substeps; ++sub) {
-      substep(real_t(time), real_t(dt_interval));
+      substep(real_t(time), real_t(dt_interval), leapfrog_);
       time = sub + 1 == substeps ? target : time + dt_interval;
       ++steps_;
     }
@@ -190,7 +193,7 @@ class BatchStepper final : public BatchStepperBase {
     const double time = times_[std::size_t(frame_)], interval = times_[std::size_t(frame_ + 1)] - time;
     const double dt_max = max_time_step(double(max_speed_));
     const real_t dt = real_t(interval / std::max(1.0, std::ceil(interval / dt_max - 1e-9)));
-    substep(real_t(time), dt);
+    substep(real_t(time), dt, false);  // the terms at the state itself, which the offline fits probe
     return double(dt);
   }
 
@@ -398,17 +401,25 @@ class BatchStepper final : public BatchStepperBase {
   }
 
   // One time step of every rollout: the samples' velocities from the grid (paper Algorithms 1, 2) or their momenta
-  // and reduced forces (Galerkin), then the projection.
-  void substep(real_t t, real_t dt) {
+  // and reduced forces (Galerkin), then the projection. leapfrog: the Galerkin terms half a step on, at t + dt / 2,
+  // the kick over the whole step and the projection's drift over the other half (docs/rom.md "Time step").
+  void substep(real_t t, real_t dt, bool leapfrog) {
     const ExecutionSpace space;
     const int B = B_, r = latent_dim_;
+    if (leapfrog) {
+      sample_kinematics(space, xhat_, sample_x_);
+      Kokkos::parallel_for("mpmrom::rom::start_velocities", Range(space, 0, long(B) * S_),
+                           rom::TangentVelocities<MemorySpace>{sample_J_, xhatdot_, start_v_, flags_});
+      Kokkos::parallel_for("mpmrom::rom::half_drift", Range(space, 0, long(B) * r),
+                           rom::DriftLatent<MemorySpace>{xhat_, xhatdot_, flags_, dt / 2});
+    }
     // On GPUs the grid strain's network runs on teams (one thread per item would run it alone); host builds keep
     // one thread per item, its faster one-pass evaluation.
     const bool strain_on_teams = !host_space && strain_.stencils.extent(0) > 0;
     if (galerkin_ && strain_.nodes.extent(0) > 0) move_strain_nodes(space);
     if (galerkin_ && strain_on_teams) sample_kinematics(space, xhat_, sample_x_);
     if (galerkin_)
-      galerkin_terms(space, t, dt, strain_on_teams);
+      galerkin_terms(space, leapfrog ? t + dt / 2 : t, dt, strain_on_teams);
     else
       transfer(space, t, dt);
     using Projection = rom::ProjectSamples<ExecutionSpace, MemorySpace>;
@@ -420,7 +431,7 @@ class BatchStepper final : public BatchStepperBase {
                            Projection{r,
                                       samples_weight_,
                                       sample_J_,
-                                      sample_v_,
+                                      leapfrog ? start_v_ : sample_v_,
                                       sample_x_,
                                       trial_x_,
                                       xhat_,
@@ -436,7 +447,8 @@ class BatchStepper final : public BatchStepperBase {
                                       max_condition_,
                                       regularized_,
                                       sample_force_,
-                                      samples_force_weight_});
+                                      samples_force_weight_,
+                                      leapfrog ? dt / 2 : real_t(0)});
     };
     project(true);
     // Re-project with J at the trial next state, so that the new state's own velocity field J(xhat_n+1) xhatdot
@@ -469,7 +481,7 @@ class BatchStepper final : public BatchStepperBase {
   Manifold manifold_;
   RomSettings settings_;
   int B_, S_, I_;
-  bool point_method_, galerkin_;
+  bool point_method_, galerkin_, leapfrog_;
   int K_;
   GridGeometry<real_t> grid_;
   ElasticMaterial<real_t> material_;
@@ -495,6 +507,7 @@ class BatchStepper final : public BatchStepperBase {
   Matrix xhat_, xhatdot_, xhat_next_, xhatdot_next_;
   rom::SourceView<MemorySpace> sources_;
   Cube sample_x_, sample_v_, node_v_, trial_x_, reference_;
+  Cube start_v_;            // the leapfrog's samples' velocities at the step's start (empty otherwise)
   GridStrainViews strain_;  // the Galerkin step's grid strain (GalerkinStrain::Grid; empty otherwise)
   Quad sample_J_;
   Kokkos::View<unsigned char**, MemorySpace> converged_;

@@ -103,6 +103,9 @@ struct ProjectSamples {
   // weighted sum times dt joins the velocity's right-hand side; empty: none.
   BatchMatrix<MemorySpace> sample_force = {};
   Kokkos::View<const real_t*, MemorySpace> force_weight = {};  // (samples): the forces' weights (the Galerkin step's)
+  // The velocity scheme's position update xhat + drift * xhatdot_next: dt, or half of it where xhat is already half a
+  // step on (the Galerkin step's leapfrog); 0: dt.
+  real_t drift = 0;
 
   static std::size_t scratch_bytes() { return scratch_view::shmem_size(lda * lda + 2 * lda); }
 
@@ -203,9 +206,10 @@ struct ProjectSamples {
         return;
       }
     }
+    const real_t step = drift > real_t(0) ? drift : dt;
     for (int q = 0; q < r; ++q) {
       xhatdot_next(b, q) = solution[q];
-      xhat_next(b, q) = project_positions ? xhat_next(b, q) + solution[lda + q] : xhat(b, q) + dt * solution[q];
+      xhat_next(b, q) = project_positions ? xhat_next(b, q) + solution[lda + q] : xhat(b, q) + step * solution[q];
     }
   }
 };
