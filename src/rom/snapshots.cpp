@@ -77,6 +77,8 @@ std::unique_ptr<impl::BatchStepperBase> snapshot_stepper(const Model& model, con
   sampled.samples = points.size() == model.num_points() ? 0 : int(points.size());
   sampled.weighting = SampleWeighting::Mass;
   sampled.end_time = 0;  // the training runs' horizon, whatever the rollouts' own (--end-time)
+  // Each sub-step's terms at its own state (a leapfrog takes them half a step on): the fits serve either integrator.
+  sampled.integrator = TimeIntegrator::SymplecticEuler;
   const HyperReduction reduction = build_hyper_reduction(model, scene, sampled, points);
   return impl::create_stepper(model, scene_path, scene.design.names, cases, sampled, reduction);
 }
@@ -182,7 +184,6 @@ std::unique_ptr<impl::BatchStepperBase> grid_target_stepper(const Model& model, 
   grid.galerkin_strain = GalerkinStrain::Continuum;
   grid.galerkin_transfer = false;
   grid.galerkin_node_average = false;
-  grid.integrator = TimeIntegrator::SymplecticEuler;
   return snapshot_stepper(model, scene_path, scene, grid, cases, points);
 }
 
@@ -389,8 +390,6 @@ CubatureSnapshots cubature_snapshots(const Scene& scene, const RomSettings& sett
   if (settings.snapshot_source != SnapshotSource::Full) {
     snapshots.scene_path = scene.source_path;
     snapshots.settings = settings;
-    // The fits take each step's terms at its own state (a leapfrog's are half a step on): the same for either.
-    snapshots.settings.integrator = TimeIntegrator::SymplecticEuler;
     // The Galerkin step's weights reproduce a force, which the grid step measures at the scene's time step and not
     // beyond it (its velocity change over a longer step is no longer the force: docs/results/rom/README.md).
     if (settings.method == RomMethod::Galerkin && settings.cfl > scene.cfl) snapshots.settings.cfl = 0;
