@@ -1,4 +1,5 @@
-// mpmrom bench fom|nn: benchmark records of the full-order steps and the network kernels (perf/README.md).
+// mpmrom bench fom|rom|nn: benchmark records of the full-order step, the reduced step and the network kernels
+// (perf/README.md).
 #include <iostream>
 #include <map>
 #include <memory>
@@ -21,6 +22,9 @@ struct Options {
   P2GTiling tiling = default_p2g_tiling<FomSolver::ExecutionSpace>();
   ParticleOrder particle_order = default_particle_order();
   NnBenchmarkSettings nn_bench;
+  std::string model_path, rom_method = "galerkin", integrator = "auto";
+  mpmrom::RomSettings rom_settings;
+  int rom_samples = 60, rollouts = 2, frames = 3, warmup = 1;
 };
 
 int run_fom(const Options& o) {
@@ -47,6 +51,34 @@ int run_fom(const Options& o) {
     std::cout << record.dump() << "\n";
   else
     std::cout << record.dump(2) << "\n";
+  return 0;
+}
+
+int run_rom(const Options& o) {
+  const mpmrom::Scene scene = mpmrom::load_scene(o.scene_path, o.overrides);
+  const mpmrom::RomMethod method = mpmrom::rom_method_from_string(o.rom_method);
+  mpmrom::RomSettings settings = mpmrom::rom_defaults(method);
+  settings.samples = o.rom_samples;
+  settings.seed = o.rom_settings.seed;
+  settings.cfl = o.rom_settings.cfl;
+  if (o.integrator != "auto") settings.integrator = mpmrom::time_integrator_from_string(o.integrator);
+  const auto result =
+      mpmrom::bench_rom(mpmrom::load_model(o.model_path), scene, settings, o.rollouts, o.frames, o.warmup);
+  auto record = mpmrom::benchmark_record("rom_step", scene.name);
+  record["model"] = o.model_path;
+  record["method"] = o.rom_method;
+  record["settings"] = result.settings.to_json();  // random samples weighted by their masses, no step bound
+  record["particles"] = result.particles;
+  record["model_points"] = result.model_points;
+  record["samples"] = result.samples;
+  record["rollouts"] = result.rollouts;
+  record["frames"] = result.frames;
+  record["steps"] = result.steps;
+  record["rom_step_seconds"] = result.seconds / double(result.steps);
+  record["rom_rollout_steps_per_s"] = double(result.steps) * result.rollouts / result.seconds;
+  record["setup_seconds"] = result.setup_seconds;
+  record["stopped_rollouts"] = result.stopped_rollouts;
+  std::cout << (o.bench_json ? record.dump() : record.dump(2)) << "\n";
   return 0;
 }
 
@@ -99,6 +131,27 @@ void add_bench(CLI::App& app, Commands& commands) {
   bench_fom_command->add_flag("--json", o->bench_json, "One JSON record on stdout");
   bench_fom_command->footer("Example: mpmrom bench fom scenes/cylinder_1e6.toml --p2g scatter --json");
 
+  auto* bench_rom_command = command->add_subcommand(
+      "rom",
+      "The reduced model's step on a scene, the model decoded at the scene's own points (its cost, not its accuracy)");
+  add_input(bench_rom_command, "model", o->model_path, "Model file (HDF5), trained on this scene's body");
+  add_input(bench_rom_command, "scene", o->scene_path, "Scene file (TOML): the same body at any lattice spacing");
+  add_defaulted(bench_rom_command, "--method", o->rom_method, "point, node or galerkin");
+  add_defaulted(bench_rom_command, "--samples", o->rom_samples, "Random samples, weighted by their masses")
+      ->check(CLI::PositiveNumber);
+  add_defaulted(bench_rom_command, "--seed", o->rom_settings.seed, "Seed of the random samples");
+  add_defaulted(bench_rom_command, "--cfl", o->rom_settings.cfl,
+                "Time step as a fraction of the CFL limit (0: the scene's; no reduced-dynamics bound here)")
+      ->check(CLI::NonNegativeNumber);
+  add_defaulted(bench_rom_command, "--integrator", o->integrator, "With --method galerkin: euler, leapfrog or auto");
+  add_defaulted(bench_rom_command, "--rollouts", o->rollouts, "Rollouts in the batch (the scene's parameters each)")
+      ->check(CLI::PositiveNumber);
+  add_defaulted(bench_rom_command, "--frames", o->frames, "Timed output intervals")->check(CLI::PositiveNumber);
+  add_defaulted(bench_rom_command, "--warmup", o->warmup, "Untimed output intervals first")
+      ->check(CLI::NonNegativeNumber);
+  bench_rom_command->add_flag("--json", o->bench_json, "One JSON record on stdout");
+  bench_rom_command->footer("Example: mpmrom bench rom model_1e5.h5 scenes/cylinder_1e7.toml --samples 60 --json");
+
   auto* bench_nn_command =
       command->add_subcommand("nn", "Network kernels: forward-with-Jacobians evaluations/s, training samples/s");
   add_network_shape(bench_nn_command, o->nn_bench.latent_dim, o->nn_bench.width, o->nn_bench.depth);
@@ -110,8 +163,9 @@ void add_bench(CLI::App& app, Commands& commands) {
   bench_nn_command->add_option("--repeats", o->nn_bench.repeats, "Timed repetitions")->check(CLI::PositiveNumber);
   bench_nn_command->add_flag("--json", o->bench_json, "One JSON record on stdout");
   bench_nn_command->footer("Example: mpmrom bench nn --codes 1024 --json");
-  commands.push_back({command, nullptr, [o, bench_fom_command](const Context&) {
-                        return bench_fom_command->parsed() ? run_fom(*o) : run_nn(*o);
+  commands.push_back({command, nullptr, [o, bench_fom_command, bench_rom_command](const Context&) {
+                        if (bench_fom_command->parsed()) return run_fom(*o);
+                        return bench_rom_command->parsed() ? run_rom(*o) : run_nn(*o);
                       }});
 }
 

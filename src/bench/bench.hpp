@@ -5,6 +5,8 @@
 #include "core/benchmark_record.hpp"
 #include "fom/fom.hpp"
 #include "manifold/bench_nn.hpp"
+#include "mpmrom/model.hpp"
+#include "mpmrom/rom.hpp"
 
 namespace mpmrom {
 
@@ -24,5 +26,23 @@ struct FomBenchmark {
 // Runs `warmup` untimed steps, then `steps` timed steps of the scene at its CFL time step.
 FomBenchmark bench_fom(const Scene& scene, P2GStrategy strategy, const P2GTiling& tiling, ParticleOrder order,
                        long steps, long warmup);
+
+struct RomBenchmark {
+  std::size_t particles = 0;     // the scene's material points
+  std::size_t model_points = 0;  // those the model was trained on
+  int samples = 0, rollouts = 0, frames = 0;
+  long steps = 0;            // time steps of the timed output intervals (each advances every rollout)
+  double seconds = 0;        // their wall-clock time (the batch waits for the device at each output)
+  double setup_seconds = 0;  // the model onto the scene's points, the samples and their sets, the batch
+  int stopped_rollouts = 0;  // by the end of the timed intervals (a stopped rollout costs nothing more)
+  RomSettings settings;      // as run: the random selection and the masses as weights
+};
+
+// The reduced model's step on the scene, its cost and not its accuracy: the model decoded at the scene's own material
+// points (model_at_scene_points) where they are not the model's, settings.samples random samples (settings.seed)
+// weighted by their masses, no fitted weights and no step bound (both need the scene's training runs), `rollouts`
+// copies of the scene's parameter values; `warmup` untimed output intervals, then `frames` timed ones.
+RomBenchmark bench_rom(const Model& model, const Scene& scene, RomSettings settings, int rollouts, int frames,
+                       int warmup);
 
 }  // namespace mpmrom
