@@ -39,7 +39,7 @@ struct RomBenchmark {
 };
 
 // The reduced model's step on the scene, its cost and not its accuracy: the model decoded at the scene's own material
-// points (model_at_scene_points) where they are not the model's, settings.samples random samples (settings.seed)
+// points (model_at_scene_points; on its own scene, its own points), settings.samples random samples (settings.seed)
 // weighted by their masses, no fitted weights and no step bound (both need the scene's training runs), `rollouts`
 // copies of the scene's parameter values; `warmup` untimed output intervals, then `frames` timed ones.
 RomBenchmark bench_rom(const Model& model, const Scene& scene, RomSettings settings, int rollouts, int frames,
