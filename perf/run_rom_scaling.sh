@@ -16,9 +16,9 @@ mpmrom="$build/apps/mpmrom"
 out=${OUT:-$here/perf/results}
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
+read -r -a flags <<< "${ROM_FLAGS:-}"
 for scene in "$@"; do
   name=$(basename "$scene" .toml)
-  read -r -a flags <<< "${ROM_FLAGS:-}"
   "$mpmrom" -q bench rom "$model" "$scene" --samples "${SAMPLES:-60}" --rollouts "${ROLLOUTS:-2}" \
     --frames "${FRAMES:-3}" "${flags[@]}" --json > "$work/$name.rom.json"
   if [ "${FOM_STEPS:-5}" -gt 0 ]; then
