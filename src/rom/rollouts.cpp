@@ -212,14 +212,11 @@ std::unique_ptr<impl::BatchStepperBase> impl::create_stepper(const Model& model,
   team.standardization = impl::device_mlp(model, params).standardization;
   const std::vector<double> arranged = nn::arrange_for_teams<double>(team.layout, team.arranged, model.weights);
   team.values = upload<Vector>("mpmrom::rom::team_params", arranged, arranged.size());
-  // GPUs read the weights from shared memory when they take at most half of a team's scratch; host caches need no copy
-  const bool stage = !Kokkos::SpaceAccessibility<Kokkos::HostSpace, MemorySpace>::accessible &&
-                     arranged.size() * sizeof(real_t) <= rom::team_scratch_budget / 2;
   std::unique_ptr<impl::BatchStepperBase> stepper;
   nn::dispatch_max_width(model.layout().widest, [&](auto width) {
     using Manifold = rom::MlpManifold<decltype(width)::value, MemorySpace>;
     stepper = std::make_unique<impl::BatchStepper<Manifold>>(
-        Manifold{impl::device_mlp(model, params), team, stage}, model.latent_dim,
+        Manifold{impl::device_mlp(model, params), team}, model.latent_dim,
         impl::ReferencePoints{model.X, model.mass, model.volume}, first, loads, xhat0, xhatdot0, settings,
         max_latent_speed, reduction);
   });

@@ -18,6 +18,7 @@
 #include "fom/fom.hpp"
 #include "rom/detail/rollout_driver.hpp"
 #include "rom/detail/grid_strain.hpp"
+#include "rom/detail/team_launches.hpp"
 #include "manifold/device_data.hpp"
 #include "rom/kernels/galerkin.hpp"
 #include "rom/kernels/leapfrog.hpp"
@@ -136,14 +137,12 @@ class BatchStepper final : public BatchStepperBase {
     newton_.tolerance = real_t(settings.newton_tolerance * scene.dx);
     newton_.max_iterations = settings.newton_iterations;
 
-    sources_scratch_ = rom::MaterialPointSources<Manifold, ExecutionSpace>::scratch_for(manifold_);
-    samples_scratch_ = rom::SampleKinematics<Manifold, ExecutionSpace>::scratch_for(manifold_);
-    sources_shape_ = rom::team_shape<ExecutionSpace>(long(B) * K, manifold_.team_lanes(), sources_scratch_);
-    const long sample_items = long(B) * S, node_items = long(B) * long(strain_.nodes.extent(0));
-    samples_shape_ = rom::team_shape<ExecutionSpace>(
-        sample_items, rom::lanes_for_items<ExecutionSpace>(sample_items, manifold_.team_lanes()), samples_scratch_);
-    nodes_shape_ = rom::team_shape<ExecutionSpace>(
-        node_items, rom::lanes_for_items<ExecutionSpace>(node_items, manifold_.team_lanes()), samples_scratch_);
+    using Sources = rom::MaterialPointSources<Manifold, ExecutionSpace>;
+    using Samples = rom::SampleKinematics<Manifold, ExecutionSpace>;
+    sources_launch_ = team_launch<ExecutionSpace>(manifold_, long(B) * K, false, Sources::scratch_for);
+    samples_launch_ = team_launch<ExecutionSpace>(manifold_, long(B) * S, true, Samples::scratch_for);
+    nodes_launch_ =
+        team_launch<ExecutionSpace>(manifold_, long(B) * long(strain_.nodes.extent(0)), true, Samples::scratch_for);
     // On GPUs, a batch too small to give each of a quarter of the resident threads a node gathers across lanes;
     // the projection takes its rows across lanes.
     if (!host_space) {
@@ -295,19 +294,21 @@ class BatchStepper final : public BatchStepperBase {
   using Range = Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>, LightWeight>;
   using Teams = Kokkos::TeamPolicy<ExecutionSpace, LightWeight>;
 
-  // A team per so many items, with the shape's threads and lanes and its scratch.
-  static Teams teams(const ExecutionSpace& space, long items, const rom::TeamShape& shape, int per_team,
-                     const rom::TeamScratch& scratch) {
+  // A team per so many items of a launch (its shape's threads by default), with its lanes and scratch.
+  static Teams teams(const ExecutionSpace& space, long items, const TeamLaunch<Manifold, ExecutionSpace>& launch,
+                     int per_team = 0) {
+    const rom::TeamShape& shape = launch.shape;
+    if (per_team == 0) per_team = shape.threads;
     return Teams(space, int((items + per_team - 1) / per_team), shape.threads, shape.lanes)
-        .set_scratch_size(0, Kokkos::PerTeam(scratch.bytes(shape)));
+        .set_scratch_size(0, Kokkos::PerTeam(launch.scratch.bytes(shape)));
   }
 
   // Positions (into `positions`) and dg/dxhat of the samples at xhat.
   void sample_kinematics(const ExecutionSpace& space, const Matrix& xhat, const Cube& positions) {
     using Samples = rom::SampleKinematics<Manifold, ExecutionSpace>;
-    Kokkos::parallel_for("mpmrom::rom::sample_kinematics",
-                         teams(space, long(B_) * S_, samples_shape_, samples_shape_.threads, samples_scratch_),
-                         Samples{manifold_, samples_X_, xhat, positions, sample_J_, samples_shape_, samples_scratch_});
+    Kokkos::parallel_for("mpmrom::rom::sample_kinematics", teams(space, long(B_) * S_, samples_launch_),
+                         Samples{samples_launch_.manifold, samples_X_, xhat, positions, sample_J_,
+                                 samples_launch_.shape, samples_launch_.scratch});
   }
 
   // The grid strain's nodes: their displacements and dg/dxhat at xhat (GridStrainNodeKinematics).
@@ -318,11 +319,10 @@ class BatchStepper final : public BatchStepperBase {
                            rom::GridStrainNodeKinematics<Manifold, MemorySpace>{manifold_, strain_.nodes, xhat_,
                                                                                 strain_.u, strain_.dg, flags_});
     else
-      Kokkos::parallel_for("mpmrom::rom::grid_strain_nodes",
-                           teams(space, items, nodes_shape_, nodes_shape_.threads, samples_scratch_),
+      Kokkos::parallel_for("mpmrom::rom::grid_strain_nodes", teams(space, items, nodes_launch_),
                            rom::TeamGridStrainNodeKinematics<Manifold, ExecutionSpace>{
-                               manifold_, strain_.nodes, xhat_, strain_.u, strain_.dg, nodes_shape_, samples_scratch_,
-                               settings_.galerkin_node_average});
+                               nodes_launch_.manifold, strain_.nodes, xhat_, strain_.u, strain_.dg, nodes_launch_.shape,
+                               nodes_launch_.scratch, settings_.galerkin_node_average});
   }
 
   // Algorithms 1 and 2 up to the projection: sources, node velocities, the samples' velocities from the grid.
@@ -330,11 +330,11 @@ class BatchStepper final : public BatchStepperBase {
     const int B = B_, S = S_, K = K_, I = I_;
     if (point_method_) {
       using PointSources = rom::MaterialPointSources<Manifold, ExecutionSpace>;
-      Kokkos::parallel_for(
-          "mpmrom::rom::point_sources",
-          teams(space, long(B) * K, sources_shape_, sources_shape_.items(), sources_scratch_),
-          PointSources{manifold_, points_X_, points_mass_, points_volume_, xhat_, xhatdot_, loads_, material_, t, dt,
-                       apic_, sources_, sample_x_, sample_J_, flags_, sources_shape_, sources_scratch_});
+      Kokkos::parallel_for("mpmrom::rom::point_sources",
+                           teams(space, long(B) * K, sources_launch_, sources_launch_.shape.items()),
+                           PointSources{sources_launch_.manifold, points_X_, points_mass_, points_volume_, xhat_,
+                                        xhatdot_, loads_, material_, t, dt, apic_, sources_, sample_x_, sample_J_,
+                                        flags_, sources_launch_.shape, sources_launch_.scratch});
     } else {
       sample_kinematics(space, xhat_, sample_x_);
       Kokkos::parallel_for("mpmrom::rom::quadrature_sources", Range(space, 0, long(B) * K),
@@ -425,30 +425,32 @@ class BatchStepper final : public BatchStepperBase {
     using Projection = rom::ProjectSamples<ExecutionSpace, MemorySpace>;
     const bool positions = settings_.projection == ProjectionScheme::Position;
     const auto project = [&](bool first_pass) {
-      Kokkos::parallel_for("mpmrom::rom::project",
-                           Teams(space, B, Kokkos::AUTO, projection_lanes_)
-                               .set_scratch_size(0, Kokkos::PerTeam(Projection::scratch_bytes())),
-                           Projection{r,
-                                      samples_weight_,
-                                      sample_J_,
-                                      leapfrog ? start_v_ : sample_v_,
-                                      sample_x_,
-                                      trial_x_,
-                                      xhat_,
-                                      xhatdot_,
-                                      xhat_next_,
-                                      xhatdot_next_,
-                                      guard_,
-                                      real_t(settings_.rate_damping),
-                                      dt,
-                                      first_pass,
-                                      positions && !first_pass,
-                                      flags_,
-                                      max_condition_,
-                                      regularized_,
-                                      sample_force_,
-                                      samples_force_weight_,
-                                      leapfrog ? dt / 2 : real_t(0)});
+      // a team thread per row of the normal equations on GPUs; host teams are one thread
+      Kokkos::parallel_for(
+          "mpmrom::rom::project",
+          (host_space ? Teams(space, B, Kokkos::AUTO, projection_lanes_) : Teams(space, B, r, projection_lanes_))
+              .set_scratch_size(0, Kokkos::PerTeam(Projection::scratch_bytes())),
+          Projection{r,
+                     samples_weight_,
+                     sample_J_,
+                     leapfrog ? start_v_ : sample_v_,
+                     sample_x_,
+                     trial_x_,
+                     xhat_,
+                     xhatdot_,
+                     xhat_next_,
+                     xhatdot_next_,
+                     guard_,
+                     real_t(settings_.rate_damping),
+                     dt,
+                     first_pass,
+                     positions && !first_pass,
+                     flags_,
+                     max_condition_,
+                     regularized_,
+                     sample_force_,
+                     samples_force_weight_,
+                     leapfrog ? dt / 2 : real_t(0)});
     };
     project(true);
     // Re-project with J at the trial next state, so that the new state's own velocity field J(xhat_n+1) xhatdot
@@ -493,8 +495,7 @@ class BatchStepper final : public BatchStepperBase {
   int max_failed_inversions_;
   rom::ProjectionGuard guard_;
   rom::NewtonSettings newton_;
-  rom::TeamScratch sources_scratch_, samples_scratch_;
-  rom::TeamShape sources_shape_, samples_shape_, nodes_shape_;
+  TeamLaunch<Manifold, ExecutionSpace> sources_launch_, samples_launch_, nodes_launch_;
   bool gather_across_lanes_ = false;
   int projection_lanes_ = 1;
   real_t max_speed_ = 0;  // fastest sample at the end of the last frame, for the next frame's time step

@@ -283,7 +283,9 @@ struct TeamGalerkinSampleTerms {
   using member_type = typename Kokkos::TeamPolicy<ExecutionSpace>::member_type;
   GalerkinSampleTerms<Manifold, typename ExecutionSpace::memory_space> terms;
 
-  static constexpr std::size_t scratch_bytes() { return 9 * (max_latent_dim + 1) * sizeof(real_t); }
+  KOKKOS_INLINE_FUNCTION static constexpr std::size_t scratch_bytes() {
+    return 9 * (max_latent_dim + 1) * sizeof(real_t);
+  }
 
   KOKKOS_INLINE_FUNCTION void operator()(const member_type& member, real_t& max_speed) const {
     const int num_samples = int(terms.X.extent(0)), r = int(terms.xhat.extent(1));

@@ -8,6 +8,8 @@
 //                                             real_t* dgdxhat /* 3 x r */) const;  // TeamFromSerial has one
 // and the team interface of the batch kernels (team_shape.hpp):
 //   int team_lanes() const;                       // vector lanes one point wants
+//   std::size_t staged_bytes() const;              // what team_stage copies into scratch (0: nothing)
+//   Manifold with_staging(bool) const;             // the same manifold with team_stage copying or not
 //   TeamScratch team_scratch() const;             // scratch values: shared by the team, per thread
 //   KOKKOS_FUNCTION const real_t* team_stage(const Member&, real_t* shared) const;  // the parameters to read
 //   KOKKOS_FUNCTION void team_kinematics(const Member&, const real_t* staged, real_t* thread_scratch, bool active,
@@ -19,6 +21,8 @@
 // MlpManifold adapts a trained network; tests plug in analytic maps, which get the team interface from
 // TeamFromSerial. Parallelism contract: value types; kinematics and position_and_gradient within one thread.
 #pragma once
+
+#include <cstddef>
 
 #include "manifold/nn/mlp_team.hpp"
 #include "rom/kernels/team_shape.hpp"
@@ -41,6 +45,8 @@ struct TeamFromSerial {
   }
   int team_lanes() const { return 1; }
   TeamScratch team_scratch() const { return TeamScratch{}; }
+  std::size_t staged_bytes() const { return 0; }
+  Manifold with_staging(bool) const { return static_cast<const Manifold&>(*this); }
   template <class Member>
   KOKKOS_INLINE_FUNCTION const real_t* team_stage(const Member&, real_t*) const {
     return nullptr;
@@ -69,7 +75,7 @@ template <int MaxWidth, class MemorySpace>
 struct MlpManifold {
   nn::Mlp<real_t, MemorySpace> mlp;
   nn::TeamMlp<real_t, MemorySpace> team;  // the same network arranged for the team kernels
-  bool stage = false;                     // the team kernels copy team.values into scratch first
+  bool stage = false;                     // the team kernels copy team.values into scratch first (with_staging)
   static constexpr bool host_space = Kokkos::SpaceAccessibility<Kokkos::HostSpace, MemorySpace>::accessible;
 
   KOKKOS_INLINE_FUNCTION int latent_dim() const { return mlp.layout.latent_dim; }
@@ -93,6 +99,14 @@ struct MlpManifold {
   }
 
   int team_lanes() const { return nn::lanes_for_width(mlp.layout.widest); }
+  // What staging copies into each team's scratch, and the same manifold with staging on or off (team_launches.hpp
+  // decides per launch).
+  std::size_t staged_bytes() const { return std::size_t(team.arranged.size) * sizeof(real_t); }
+  MlpManifold with_staging(bool on) const {
+    MlpManifold copy = *this;
+    copy.stage = on;
+    return copy;
+  }
   TeamScratch team_scratch() const {
     TeamScratch scratch;
     scratch.shared = stage ? team.arranged.size : 0;
@@ -103,9 +117,15 @@ struct MlpManifold {
   template <class Member>
   KOKKOS_INLINE_FUNCTION const real_t* team_stage(const Member& member, real_t* shared) const {
     if (!stage) return team.values.data();
+    // eight loads in flight a thread (the size is whole channel blocks), each across the team's lanes coalesced
+    constexpr int in_flight = nn::kinematics_channels;
     const auto values = team.values;
-    Kokkos::parallel_for(Kokkos::TeamVectorRange(member, team.arranged.size),
-                         [&](const int i) { shared[i] = values(i); });
+    const int part = team.arranged.size / in_flight;
+    Kokkos::parallel_for(Kokkos::TeamVectorRange(member, part), [&](const int i) {
+      real_t loaded[in_flight];
+      for (int c = 0; c < in_flight; ++c) loaded[c] = values(i + c * part);
+      for (int c = 0; c < in_flight; ++c) shared[i + c * part] = loaded[c];
+    });
     member.team_barrier();
     return shared;
   }

@@ -9,8 +9,8 @@
 // Both through the normal equations (J^T W J + lambda I) y = J^T W rhs. The first pass evaluates J at xhat(t_n);
 // further passes at the state the previous one produced (docs/rom.md says why).
 //
-// Parallelism: one team per rollout; the team's threads take the entries of J^T W J and the right-hand sides, each a
-// parallel_reduce over the samples' rows across vector lanes; one thread then factors and solves the r x r system
+// Parallelism: one team per rollout; team thread i takes row i of J^T W J and of the right-hand sides, one
+// parallel_reduce over the samples' rows across its vector lanes; one thread then factors and solves the r x r system
 // (core/math/cholesky.hpp). Guard: the condition number is estimated from the Cholesky factor as (max L_ii / min
 // L_ii)^2 (a lower bound of cond_2); above max_condition, or when the factorisation fails, the system is regularised
 // with mu I, mu = regularization * trace / r, and the rollout flagged; if that fails too, or the solution is not
@@ -42,33 +42,38 @@ struct ProjectionGuard {
 
 KOKKOS_INLINE_FUNCTION int SerialGuardedSolve(const real_t* A, const real_t* rhs, int r, const ProjectionGuard& guard,
                                               real_t* x, real_t& condition, int columns = 1) {
+  // every loop bounded by max_latent_dim at compile time, so that on GPUs the factor stays in registers
   constexpr int lda = max_latent_dim;
   real_t L[max_latent_dim * max_latent_dim];
   real_t trace = 0;
-  for (int i = 0; i < r; ++i) trace += A[i * lda + i];
+  for (int i = 0; i < lda; ++i)
+    if (i < r) trace += A[i * lda + i];
   int flags = 0;
   for (int attempt = 0; attempt < 2; ++attempt) {
     const real_t mu = attempt == 0 ? real_t(0) : guard.regularization * trace / real_t(r);
-    for (int i = 0; i < r; ++i)
-      for (int j = 0; j < r; ++j) L[i * lda + j] = A[i * lda + j] + (i == j ? mu : real_t(0));
-    bool ok = dense::SerialCholesky(L, r, lda);
+    for (int i = 0; i < lda; ++i)
+      for (int j = 0; j <= i; ++j)
+        if (i < r) L[i * lda + j] = A[i * lda + j] + (i == j ? mu : real_t(0));
+    bool ok = dense::SerialCholesky<max_latent_dim>(L, r, lda);
     if (ok) {
       real_t lo = L[0], hi = L[0];
-      for (int i = 1; i < r; ++i) {
-        lo = math::min(lo, L[i * lda + i]);
-        hi = math::max(hi, L[i * lda + i]);
-      }
+      for (int i = 1; i < lda; ++i)
+        if (i < r) {
+          lo = math::min(lo, L[i * lda + i]);
+          hi = math::max(hi, L[i * lda + i]);
+        }
       condition = (hi / lo) * (hi / lo);
       ok = attempt == 1 || condition <= guard.max_condition;
     }
     if (!ok && !guard.regularize) return flags | flag_ill_conditioned | flag_ill_posed;
     if (ok) {
-      for (int c = 0; c < columns; ++c) {
+      for (int c = 0; c < 2 && c < columns; ++c) {
         real_t* column = x + c * lda;
-        for (int i = 0; i < r; ++i) column[i] = rhs[c * lda + i];
-        dense::SerialCholeskySolve(L, r, lda, column);
-        for (int i = 0; i < r; ++i)
-          if (!math::isfinite(column[i])) return flags | flag_not_finite;
+        for (int i = 0; i < lda; ++i)
+          if (i < r) column[i] = rhs[c * lda + i];
+        dense::SerialCholeskySolve<max_latent_dim>(L, r, lda, column);
+        for (int i = 0; i < lda; ++i)
+          if (i < r && !math::isfinite(column[i])) return flags | flag_not_finite;
       }
       return flags;
     }
@@ -76,6 +81,30 @@ KOKKOS_INLINE_FUNCTION int SerialGuardedSolve(const real_t* A, const real_t* rhs
   }
   return flags | flag_singular;
 }
+
+// One row of the normal equations and its right-hand sides (velocity, position step) as a lane sums its share of
+// the samples' rows: registers, reduced across the lanes in one pass.
+struct NormalRow {
+  real_t v[max_latent_dim + 2];
+  KOKKOS_INLINE_FUNCTION NormalRow() {
+    for (int c = 0; c < max_latent_dim + 2; ++c) v[c] = real_t(0);
+  }
+  KOKKOS_INLINE_FUNCTION NormalRow& operator+=(const NormalRow& other) {
+    for (int c = 0; c < max_latent_dim + 2; ++c) v[c] += other.v[c];
+    return *this;
+  }
+};
+
+}  // namespace mpmrom::rom
+
+namespace Kokkos {
+template <>
+struct reduction_identity<mpmrom::rom::NormalRow> {
+  KOKKOS_FORCEINLINE_FUNCTION static mpmrom::rom::NormalRow sum() { return mpmrom::rom::NormalRow(); }
+};
+}  // namespace Kokkos
+
+namespace mpmrom::rom {
 
 template <class ExecutionSpace, class MemorySpace>
 struct ProjectSamples {
@@ -130,47 +159,35 @@ struct ProjectSamples {
     }
   }
 
-  // J^T W J (row-major in shared), J^T W v (after it) and, for a positions pass, J^T W (x_n + dt v - x) (after that).
+  // J^T W J (row-major in shared), J^T W v (after it) and, for a positions pass, J^T W (x_n + dt v - x) (after that):
+  // row i of each by one team thread, the samples' rows across its lanes.
   KOKKOS_INLINE_FUNCTION void assemble(const member_type& team, int b, real_t* shared) const {
     const int r = latent_dim;
     const int rows = 3 * int(sample_J.extent(1));
-    const int matrix_entries = r * (r + 1) / 2;
-    const int entries = matrix_entries + (project_positions ? 2 * r : r);
-    Kokkos::parallel_for(Kokkos::TeamThreadRange(team, entries), [&](const int entry) {
-      real_t sum = 0;
-      if (entry < matrix_entries) {
-        int i = 0, offset = entry;  // entry -> (i, j), j >= i, row by row of the upper triangle
-        while (offset >= r - i) {
-          offset -= r - i;
-          ++i;
-        }
-        const int j = i + offset;
-        Kokkos::parallel_reduce(
-            Kokkos::ThreadVectorRange(team, rows),
-            [&](const int row, real_t& partial) {
-              const real_t* Jrow = &sample_J(b, row / 3, row % 3, 0);
-              partial += weight(row / 3) * Jrow[i] * Jrow[j];
-            },
-            sum);
-        Kokkos::single(Kokkos::PerThread(team), [&]() {
-          shared[i * lda + j] = sum;
-          shared[j * lda + i] = sum;
-        });
-      } else {
-        const int column = (entry - matrix_entries) / r, i = (entry - matrix_entries) % r;
-        Kokkos::parallel_reduce(
-            Kokkos::ThreadVectorRange(team, rows),
-            [&](const int row, real_t& partial) {
-              const int s = row / 3, k = row % 3;
-              const real_t v = sample_velocity(b, s, k);
-              const real_t target = column == 0 ? v : sample_x(b, s, k) + dt * v - evaluated_x(b, s, k);
-              partial += weight(s) * sample_J(b, s, k, i) * target;
-              if (column == 0 && k == 0 && sample_force.extent(0) > 0)
-                partial += force_weight(s) * dt * sample_force(b, s * r + i);
-            },
-            sum);
-        Kokkos::single(Kokkos::PerThread(team), [&]() { shared[lda * lda + column * lda + i] = sum; });
-      }
+    const bool forces = sample_force.extent(0) > 0;
+    Kokkos::parallel_for(Kokkos::TeamThreadRange(team, r), [&](const int i) {
+      NormalRow sums;
+      Kokkos::parallel_reduce(
+          Kokkos::ThreadVectorRange(team, rows),
+          [&](const int row, NormalRow& partial) {
+            const int s = row / 3, k = row % 3;
+            const real_t* Jrow = &sample_J(b, s, k, 0);
+            const real_t wJ = weight(s) * Jrow[i];
+            for (int j = 0; j < max_latent_dim; ++j)
+              if (j < r) partial.v[j] += wJ * Jrow[j];
+            const real_t v = sample_velocity(b, s, k);
+            partial.v[max_latent_dim] += wJ * v;
+            if (forces && k == 0) partial.v[max_latent_dim] += force_weight(s) * dt * sample_force(b, s * r + i);
+            if (project_positions)
+              partial.v[max_latent_dim + 1] += wJ * (sample_x(b, s, k) + dt * v - evaluated_x(b, s, k));
+          },
+          sums);
+      Kokkos::single(Kokkos::PerThread(team), [&]() {
+        for (int j = 0; j < max_latent_dim; ++j)
+          if (j < r) shared[i * lda + j] = sums.v[j];
+        shared[lda * lda + i] = sums.v[max_latent_dim];
+        shared[lda * lda + lda + i] = sums.v[max_latent_dim + 1];
+      });
     });
   }
 
@@ -199,7 +216,8 @@ struct ProjectSamples {
     }
     if (guard.max_latent_speed > real_t(0)) {
       real_t speed2 = 0;
-      for (int q = 0; q < r; ++q) speed2 += solution[q] * solution[q];
+      for (int q = 0; q < lda; ++q)
+        if (q < r) speed2 += solution[q] * solution[q];
       if (speed2 > guard.max_latent_speed * guard.max_latent_speed) {
         flags(b) |= flag_energy;
         hold(b);
@@ -207,10 +225,11 @@ struct ProjectSamples {
       }
     }
     const real_t step = drift > real_t(0) ? drift : dt;
-    for (int q = 0; q < r; ++q) {
-      xhatdot_next(b, q) = solution[q];
-      xhat_next(b, q) = project_positions ? xhat_next(b, q) + solution[lda + q] : xhat(b, q) + step * solution[q];
-    }
+    for (int q = 0; q < lda; ++q)  // a compile-time bound keeps the solution in registers
+      if (q < r) {
+        xhatdot_next(b, q) = solution[q];
+        xhat_next(b, q) = project_positions ? xhat_next(b, q) + solution[lda + q] : xhat(b, q) + step * solution[q];
+      }
   }
 };
 

@@ -57,14 +57,20 @@ struct TeamScratch {
   }
 };
 
-// Lanes per item for a launch of few items: where a warp for each item still fits the GPU's resident threads, a warp
-// an item (the launch waits on one item's passes through the network, and a 48-wide layer then takes one pass of
-// its lanes instead of three); else `lanes`, which wastes the fewest lanes when the items fill the GPU.
+// Whether a GPU launch of `items` items is latency-bound: a warp for each item still fits the GPU's resident threads,
+// so the launch waits on one item's passes through the network. False on host backends.
+template <class ExecutionSpace>
+bool few_items(long items, const ExecutionSpace& space = {}) {
+  if (Kokkos::SpaceAccessibility<Kokkos::HostSpace, typename ExecutionSpace::memory_space>::accessible) return false;
+  constexpr int warp = 32;
+  return items * warp <= long(compat::concurrency(space));
+}
+
+// Lanes per item: for few items a warp an item (a 48-wide layer then takes one pass of its lanes instead of three);
+// else `lanes`, which wastes the fewest lanes when the items fill the GPU.
 template <class ExecutionSpace>
 int lanes_for_items(long items, int lanes, const ExecutionSpace& space = {}) {
-  if (Kokkos::SpaceAccessibility<Kokkos::HostSpace, typename ExecutionSpace::memory_space>::accessible) return lanes;
-  constexpr int warp = 32;
-  return items * warp <= long(compat::concurrency(space)) ? std::max(lanes, warp) : lanes;
+  return few_items(items, space) ? std::max(lanes, 32) : lanes;
 }
 
 // The shape for `items` items on a manifold that wants `lanes` lanes per item and this scratch: on GPUs 128 / lanes
