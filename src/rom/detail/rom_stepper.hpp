@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "fom/fom.hpp"
+#include "rom/detail/rollout_counters.hpp"
 #include "rom/detail/rollout_driver.hpp"
 #include "rom/detail/grid_strain.hpp"
 #include "rom/detail/team_launches.hpp"
@@ -68,7 +69,8 @@ class BatchStepper final : public BatchStepperBase {
         stable_dt_(h.stable_time_step),
         density_(real_t(scene.material.density)),
         domain_(reference_domain(scene)),
-        max_failed_inversions_(int(std::floor(settings.max_failed_inversions * K_))) {
+        max_failed_inversions_(int(std::floor(settings.max_failed_inversions * K_))),
+        counters_(B_) {
     const int r = latent_dim, B = B_, S = S_, K = K_;
     std::vector<double> X_src, mass_src, volume_src, X_samples, weight_samples, force_weight_samples;
     for (const int p : h.source_points) {
@@ -121,12 +123,6 @@ class BatchStepper final : public BatchStepperBase {
     reference_ = Cube("mpmrom::rom::reference", point_method_ ? 0 : B, point_method_ ? 0 : K, 3);
     converged_ = Kokkos::View<unsigned char**, MemorySpace>("mpmrom::rom::converged", point_method_ ? 0 : B,
                                                             point_method_ ? 0 : K);
-    failures_ = Kokkos::View<int*, MemorySpace>("mpmrom::rom::failures", B);
-    flags_ = Kokkos::View<int*, MemorySpace>("mpmrom::rom::flags", B);
-    step_failures_ = Kokkos::View<int*, MemorySpace>("mpmrom::rom::step_failures", B);
-    fallbacks_ = Kokkos::View<int*, MemorySpace>("mpmrom::rom::fallbacks", B);
-    max_condition_ = Vector("mpmrom::rom::max_condition", B);
-    regularized_ = Kokkos::View<int*, MemorySpace>("mpmrom::rom::regularized", B);
     fastest_sample_ = Kokkos::View<real_t, MemorySpace>("mpmrom::rom::fastest_sample");
 
     constexpr double epsilon = std::numeric_limits<real_t>::epsilon();
@@ -219,12 +215,8 @@ class BatchStepper final : public BatchStepperBase {
     saved.max_speed = double(max_speed_);
     saved.xhat = download(xhat_);
     saved.xhatdot = download(xhatdot_);
-    saved.max_condition = download(max_condition_);
     saved.reference = download(reference_);
-    saved.flags = download_ints(flags_);
-    saved.failures = download_ints(failures_);
-    saved.fallbacks = download_ints(fallbacks_);
-    saved.regularized = download_ints(regularized_);
+    counters_.save(saved);
     saved.converged = download_ints(converged_);
     saved.outcomes = outcomes_;
     return saved;
@@ -233,54 +225,28 @@ class BatchStepper final : public BatchStepperBase {
   void restore(const BatchState& saved) override {
     const std::size_t B = std::size_t(B_), r = std::size_t(latent_dim_);
     if (saved.frame < 0 || saved.frame >= frames() || saved.xhat.size() != B * r || saved.xhatdot.size() != B * r ||
-        saved.max_condition.size() != B || saved.flags.size() != B || saved.failures.size() != B ||
-        saved.fallbacks.size() != B || saved.regularized.size() != B || saved.outcomes.size() != B ||
-        saved.reference.size() != reference_.size() || saved.converged.size() != converged_.size())
+        !counters_.fits(saved) || saved.outcomes.size() != B || saved.reference.size() != reference_.size() ||
+        saved.converged.size() != converged_.size())
       throw std::runtime_error("the saved state is of another batch (frame or sizes differ)");
     frame_ = saved.frame;
     steps_ = saved.steps;
     step_seconds_ = saved.step_seconds;
     max_speed_ = real_t(saved.max_speed);
-    const auto fill = [](const auto& view, const auto& values) {
-      const auto host = Kokkos::create_mirror_view(view);
-      using Value = typename std::decay_t<decltype(host)>::value_type;
-      for (std::size_t i = 0; i < values.size(); ++i) host.data()[i] = Value(values[i]);
-      Kokkos::deep_copy(view, host);
-    };
-    fill(xhat_, saved.xhat);
-    fill(xhatdot_, saved.xhatdot);
-    fill(max_condition_, saved.max_condition);
-    fill(reference_, saved.reference);
-    fill(flags_, saved.flags);
-    fill(failures_, saved.failures);
-    fill(fallbacks_, saved.fallbacks);
-    fill(regularized_, saved.regularized);
-    fill(converged_, saved.converged);
+    fill_view(xhat_, saved.xhat);
+    fill_view(xhatdot_, saved.xhatdot);
+    fill_view(reference_, saved.reference);
+    fill_view(converged_, saved.converged);
+    counters_.restore(saved);
     outcomes_ = saved.outcomes;
   }
 
   std::vector<RolloutOutcome> outcomes() const override {
     std::vector<RolloutOutcome> result = outcomes_;
-    const auto condition = download(max_condition_);
-    const auto regularized = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), regularized_);
-    const auto failures = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), failures_);
-    const auto fallbacks = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), fallbacks_);
-    for (int b = 0; b < B_; ++b) {
-      result[b].max_condition = condition[b];
-      result[b].regularized_steps = regularized(b);
-      result[b].inversion_failures = failures(b);
-      result[b].inversion_fallbacks = fallbacks(b);
-    }
+    counters_.report(result);
     return result;
   }
 
  private:
-  template <class View>
-  static std::vector<int> download_ints(const View& view) {
-    const auto host = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), view);
-    return std::vector<int>(host.data(), host.data() + host.size());
-  }
-
   static std::vector<double> output_times(const Scene& scene) {
     std::vector<double> times{0.0};
     for (int frame = 1; frame <= scene.num_outputs; ++frame)
@@ -316,8 +282,8 @@ class BatchStepper final : public BatchStepperBase {
     const long items = long(B_) * long(strain_.nodes.extent(0));
     if constexpr (host_space)
       Kokkos::parallel_for("mpmrom::rom::grid_strain_nodes", Range(space, 0, items),
-                           rom::GridStrainNodeKinematics<Manifold, MemorySpace>{manifold_, strain_.nodes, xhat_,
-                                                                                strain_.u, strain_.dg, flags_});
+                           rom::GridStrainNodeKinematics<Manifold, MemorySpace>{
+                               manifold_, strain_.nodes, xhat_, strain_.u, strain_.dg, counters_.flags});
     else
       Kokkos::parallel_for("mpmrom::rom::grid_strain_nodes", teams(space, items, nodes_launch_),
                            rom::TeamGridStrainNodeKinematics<Manifold, ExecutionSpace>{
@@ -334,7 +300,7 @@ class BatchStepper final : public BatchStepperBase {
                            teams(space, long(B) * K, sources_launch_, sources_launch_.shape.items()),
                            PointSources{sources_launch_.manifold, points_X_, points_mass_, points_volume_, xhat_,
                                         xhatdot_, loads_, material_, t, dt, apic_, sources_, sample_x_, sample_J_,
-                                        flags_, sources_launch_.shape, sources_launch_.scratch});
+                                        counters_.flags, sources_launch_.shape, sources_launch_.scratch});
     } else {
       sample_kinematics(space, xhat_, sample_x_);
       Kokkos::parallel_for("mpmrom::rom::quadrature_sources", Range(space, 0, long(B) * K),
@@ -355,12 +321,13 @@ class BatchStepper final : public BatchStepperBase {
                                                                          reference_,
                                                                          converged_,
                                                                          sources_,
-                                                                         failures_,
-                                                                         step_failures_,
-                                                                         fallbacks_,
-                                                                         flags_});
-      Kokkos::parallel_for("mpmrom::rom::check_inversions", Range(space, 0, B),
-                           rom::CheckInversions<MemorySpace>{step_failures_, max_failed_inversions_, flags_});
+                                                                         counters_.failures,
+                                                                         counters_.step_failures,
+                                                                         counters_.fallbacks,
+                                                                         counters_.flags});
+      Kokkos::parallel_for(
+          "mpmrom::rom::check_inversions", Range(space, 0, B),
+          rom::CheckInversions<MemorySpace>{counters_.step_failures, max_failed_inversions_, counters_.flags});
     }
     const rom::GatherNodeVelocities<MemorySpace> gather{grid_,  nodes_, offsets_, node_sources_, sources_,
                                                         loads_, t,      dt,       node_v_,       host_space ? 1 : 32};
@@ -371,7 +338,7 @@ class BatchStepper final : public BatchStepperBase {
     // Into a device View: only the last sub-step's speed is read (at the frame's end), so sub-steps never wait.
     Kokkos::parallel_reduce(
         "mpmrom::rom::g2p_samples", Range(space, 0, long(B) * S),
-        rom::SampleVelocities<MemorySpace>{grid_, node_slot_, sample_x_, node_v_, sample_v_, flags_},
+        rom::SampleVelocities<MemorySpace>{grid_, node_slot_, sample_x_, node_v_, sample_v_, counters_.flags},
         Kokkos::Max<real_t, MemorySpace>(fastest_sample_));
   }
 
@@ -384,7 +351,7 @@ class BatchStepper final : public BatchStepperBase {
         density_,        t,
         sample_x_,       sample_v_,
         sample_J_,       sample_force_,
-        flags_,          strain_.stencils,
+        counters_.flags, strain_.stencils,
         strain_.u,       strain_.dg,
         grid_,           settings_.galerkin_transfer ? dt : real_t(0),
         strain_on_teams, settings_.galerkin_node_average};
@@ -409,9 +376,9 @@ class BatchStepper final : public BatchStepperBase {
     if (leapfrog) {
       sample_kinematics(space, xhat_, sample_x_);
       Kokkos::parallel_for("mpmrom::rom::start_velocities", Range(space, 0, long(B) * S_),
-                           rom::TangentVelocities<MemorySpace>{sample_J_, xhatdot_, start_v_, flags_});
+                           rom::TangentVelocities<MemorySpace>{sample_J_, xhatdot_, start_v_, counters_.flags});
       Kokkos::parallel_for("mpmrom::rom::half_drift", Range(space, 0, long(B) * r),
-                           rom::DriftLatent<MemorySpace>{xhat_, xhatdot_, flags_, dt / 2});
+                           rom::DriftLatent<MemorySpace>{xhat_, xhatdot_, counters_.flags, dt / 2});
     }
     // On GPUs the grid strain's network runs on teams (one thread per item would run it alone); host builds keep
     // one thread per item, its faster one-pass evaluation.
@@ -445,9 +412,9 @@ class BatchStepper final : public BatchStepperBase {
                      dt,
                      first_pass,
                      positions && !first_pass,
-                     flags_,
-                     max_condition_,
-                     regularized_,
+                     counters_.flags,
+                     counters_.max_condition,
+                     counters_.regularized,
                      sample_force_,
                      samples_force_weight_,
                      leapfrog ? dt / 2 : real_t(0)});
@@ -467,7 +434,7 @@ class BatchStepper final : public BatchStepperBase {
 
   // Rollouts whose fatal flags went up in this frame stop here; the others have completed one more frame.
   void update_outcomes(double time) {
-    const auto flags = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), flags_);
+    const auto flags = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), counters_.flags);
     for (int b = 0; b < B_; ++b) {
       RolloutOutcome& outcome = outcomes_[b];
       const bool fatal = flags(b) & rom::fatal_flags;
@@ -512,8 +479,7 @@ class BatchStepper final : public BatchStepperBase {
   GridStrainViews strain_;  // the Galerkin step's grid strain (GalerkinStrain::Grid; empty otherwise)
   Quad sample_J_;
   Kokkos::View<unsigned char**, MemorySpace> converged_;
-  Kokkos::View<int*, MemorySpace> failures_, flags_, step_failures_, fallbacks_, regularized_;
-  Vector max_condition_;
+  RolloutCounters<MemorySpace> counters_;
   Kokkos::View<real_t, MemorySpace> fastest_sample_;
 };
 
