@@ -46,11 +46,14 @@ int train(const TrainOptions& o, const Context& context) {
   const auto& world = context.world;
   mpmrom::require_writable_output(o.model_path);
   if (!quiet) std::cerr << "mpmrom train: reading " << o.train_inputs.size() << " input(s)\n";
-  const auto data = mpmrom::load_training_data(o.train_inputs, {}, mpmrom::training_fields(o.training));
+  o.training.validate();
+  const auto data = mpmrom::load_training_data(o.train_inputs, {}, mpmrom::training_fields(o.training),
+                                               std::size_t(o.training.max_points), o.training.seed);
   if (!quiet)
     std::cerr << "mpmrom train: " << data.train.runs.size() << " training runs, " << data.test.runs.size()
-              << " test runs, " << data.train.runs.front().num_points << " points; r = " << o.training.latent_dim
-              << ", " << o.training.depth << " layers of " << o.training.width
+              << " test runs, " << data.train.runs.front().num_points << " points"
+              << (data.reference.X.empty() ? "" : " (of " + std::to_string(data.reference.mass.size()) + ")")
+              << "; r = " << o.training.latent_dim << ", " << o.training.depth << " layers of " << o.training.width
               << ", lambda1 = " << o.training.lambda_gradient << ", lambda2 = " << o.training.lambda_velocity
               << ", lambda3 = " << o.training.lambda_affine << ", " << o.training.epochs << " epochs\n";
   const std::string checkpoint = o.model_path + ".ckpt";
@@ -127,6 +130,10 @@ void add_train(CLI::App& app, Commands& commands) {
   add_defaulted(command, "--batch-snapshots", o->training.batch_snapshots, "Snapshots per minibatch");
   add_defaulted(command, "--points-per-snapshot", o->training.points_per_snapshot,
                 "Material points drawn per snapshot visit");
+  add_defaulted(command, "--max-points", o->training.max_points,
+                "Read the training runs at this many material points, a random subset (memory and reading time "
+                "bounded at any resolution; the model keeps every point); 0: all")
+      ->check(CLI::NonNegativeNumber);
   add_defaulted(command, "--learning-rate", o->training.learning_rate, "Adam learning rate, first epoch");
   add_defaulted(command, "--final-learning-rate", o->training.final_learning_rate, "Adam learning rate, last epoch");
   add_defaulted(command, "--validation", o->training.validation_fraction, "Fraction of material points held out");

@@ -40,6 +40,9 @@ struct Snapshot {
   std::vector<double> X, mass, volume;  // (points, 3), (points), (points)
   std::vector<double> time;             // (frames)
   std::vector<double> x, v, F, C;       // (frames, points, 3), (frames, points, 3), (frames, points, 3, 3) twice
+  // Read at some of the run's material points only (read_snapshot's points): their indices in the run, in the order
+  // held; X, mass, volume and the fields are those points'. Empty: every point.
+  std::vector<std::size_t> point_ids;
 };
 
 // What read_snapshot loads: everything, or all but APIC's C (the 3/8 of a run that training and evaluation never use).
@@ -48,7 +51,17 @@ enum class SnapshotFields { All, WithoutAffine };
 // Reads and validates everything: format tag and version, completeness, shapes consistent with the number of points
 // and frames, finite values, positive masses and volumes, increasing times. Throws std::runtime_error with one line
 // naming the file and the problem on any bad file. WithoutAffine checks C's shape but leaves Snapshot::C empty.
-Snapshot read_snapshot(const std::string& path, SnapshotFields fields = SnapshotFields::All);
+// points (indices into the run's material points, each below its count): only those points are kept, the fields
+// read a frame at a time (the memory of one frame beyond what is kept); empty: every point.
+Snapshot read_snapshot(const std::string& path, SnapshotFields fields = SnapshotFields::All,
+                       const std::vector<std::size_t>& points = {});
+
+// The reference configuration of a complete snapshot, every point's, with read_snapshot's checks of those arrays:
+// what a model trained at some of the points keeps of all of them.
+struct SnapshotReference {
+  std::vector<double> X, mass, volume;  // (points, 3), (points), (points)
+};
+SnapshotReference read_snapshot_reference(const std::string& path);
 
 // The header of a complete snapshot of this build's format (the same checks as read_snapshot, without the arrays):
 // what a resumed sweep compares to tell a finished run from one of another scene.

@@ -330,6 +330,34 @@ void Dataset::append_from(const void* entry, Element type) {
 
 std::vector<double> Dataset::read() const {
   const auto dims = dataset_dims(*this, Handle(H5Dget_space(id())));
+  check_readable(std::size_t(product(dims)));
+  std::vector<double> values(product(dims));
+  if (!values.empty() && H5Dread(id(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, values.data()) < 0) {
+    fail(file_name_, "read", "dataset " + path_);
+  }
+  return values;
+}
+
+std::vector<double> Dataset::read_entry(std::size_t index) const {
+  const Handle file_space(H5Dget_space(id()));
+  const auto dims = dataset_dims(*this, file_space);
+  check_readable(std::size_t(product(dims)));
+  if (dims.empty() || index >= dims[0])
+    refuse(file_name_, "dataset " + path_, "has no entry " + std::to_string(index) + " along its first dimension");
+  std::vector<hsize_t> start(dims.size(), 0), count = dims;
+  start[0] = hsize_t(index);
+  count[0] = 1;
+  std::vector<double> values(product(count));
+  const Handle memory_space(H5Screate_simple(int(count.size()), count.data(), nullptr));
+  if (!values.empty() &&
+      (!memory_space.is_open() ||
+       H5Sselect_hyperslab(file_space.get(), H5S_SELECT_SET, start.data(), nullptr, count.data(), nullptr) < 0 ||
+       H5Dread(id(), H5T_NATIVE_DOUBLE, memory_space.get(), file_space.get(), H5P_DEFAULT, values.data()) < 0))
+    fail(file_name_, "read", "dataset " + path_);
+  return values;
+}
+
+void Dataset::check_readable(std::size_t elements) const {
   // A damaged file can claim more elements than it stores (libhdf5 1.10 then reads past its own buffers, found by
   // fuzzing) or than it could hold (this buffer would be the allocation it asks for): both refused before reading.
   const Handle stored_type(H5Dget_type(id()));
@@ -339,18 +367,13 @@ std::vector<double> Dataset::read() const {
     fail(file_name_, "inspect", "dataset " + path_);
   if (!standard_number_type(stored_type.get(), false))
     refuse(file_name_, "dataset " + path_, "does not hold numbers of a standard type (float32, float64, int32, int64)");
-  const double required = double(product(dims)) * double(H5Tget_size(stored_type.get()));
+  const double required = double(elements) * double(H5Tget_size(stored_type.get()));
   if (required > double(file_size)) refuse(file_name_, "dataset " + path_, "claims more data than the file holds");
   const Handle creation(H5Dget_create_plist(id()));
   if (!creation.is_open()) fail(file_name_, "inspect", "dataset " + path_);
   const bool view = H5Pget_layout(creation.get()) == H5D_VIRTUAL;  // stores nothing itself (the XDMF entry views)
   if (!view && double(H5Dget_storage_size(id())) < required)
     refuse(file_name_, "dataset " + path_, "is truncated or unwritten");
-  std::vector<double> values(product(dims));
-  if (!values.empty() && H5Dread(id(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, values.data()) < 0) {
-    fail(file_name_, "read", "dataset " + path_);
-  }
-  return values;
 }
 
 std::vector<std::string> Dataset::read_strings() const {

@@ -109,6 +109,9 @@ class Dataset : public Object {
   }
   // The whole dataset, row-major, converted to double whatever type it is stored in (int64 above 2^53 rounds).
   std::vector<double> read() const;
+  // Entry `index` of the first dimension (shape()[1:] elements, row-major, as double): one frame of a (frames, ...)
+  // dataset, read without the rest. Same checks as read().
+  std::vector<double> read_entry(std::size_t index) const;
   // A dataset made by Group::create_string_list; refuses any other type (variable-length strings included).
   std::vector<std::string> read_strings() const;
 
@@ -117,6 +120,8 @@ class Dataset : public Object {
   using Object::Object;
   void write_from(const void* data, Element memory_type);
   void append_from(const void* entry, Element memory_type);
+  // Refuses a dataset of `elements` numbers that is not of a standard number type or that the file cannot hold.
+  void check_readable(std::size_t elements) const;
 };
 
 class Group : public Object {

@@ -306,6 +306,10 @@ void time_training(const NnBenchmarkSettings& settings, const nn::Mlp<T, MemoryS
 Model train_model(const TrainingData& data, const TrainingSettings& settings, const std::string& checkpoint_path,
                   bool resume, const TrainingCallbacks& callbacks, const parallel::Communicator& comm) {
   settings.validate();
+  if (settings.max_points > 0 && data.train.runs.front().num_points > std::size_t(settings.max_points))
+    throw std::invalid_argument("max_points " + std::to_string(settings.max_points) + ": the training runs hold " +
+                                std::to_string(data.train.runs.front().num_points) +
+                                " points (read them with load_training_data's max_points)");
   impl::TrainingTargets targets;
   Model model = impl::start_model(data, settings, targets);
   const impl::PointSplit points = impl::split_points(settings, int(data.train.runs.front().num_points));

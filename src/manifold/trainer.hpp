@@ -28,6 +28,7 @@ struct TrainingSettings {
   int epochs = 600;                   // each visits every training snapshot once
   int batch_snapshots = 8;            // snapshots per minibatch
   int points_per_snapshot = 128;      // material points drawn per snapshot visit
+  int max_points = 0;                 // material points the training runs are read at (a random subset); 0: all
   double learning_rate = 3e-3;        // Adam, first epoch
   double final_learning_rate = 3e-5;  // Adam, last epoch (exponential decay in between)
   double validation_fraction = 0.1;   // material points held out of training, to watch over-fitting

@@ -10,8 +10,8 @@ namespace mpmrom {
 // The settings a model file records, each under its member's name; checkpoint_seconds is not one of them (it does
 // not change what training computes).
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(TrainingSettings, latent_dim, width, depth, lambda_gradient, lambda_velocity,
-                                   lambda_affine, epochs, batch_snapshots, points_per_snapshot, learning_rate,
-                                   final_learning_rate, validation_fraction, validate_every, seed)
+                                   lambda_affine, epochs, batch_snapshots, points_per_snapshot, max_points,
+                                   learning_rate, final_learning_rate, validation_fraction, validate_every, seed)
 
 nlohmann::json TrainingSettings::to_json() const { return nlohmann::json(*this); }
 
@@ -28,6 +28,7 @@ void TrainingSettings::validate() const {
   require(epochs >= 1, "epochs must be >= 1");
   require(batch_snapshots >= 1, "batch-snapshots must be >= 1");
   require(points_per_snapshot >= 1, "points-per-snapshot must be >= 1");
+  require(max_points >= 0, "max-points must be >= 0");
   require(learning_rate > 0 && final_learning_rate > 0 && std::isfinite(learning_rate) &&
               std::isfinite(final_learning_rate),
           "learning rates must be positive");

@@ -99,11 +99,17 @@ struct GreedyFit {
 GreedyFit greedy_fit(const Model& model, const TrainingData& data,
                      const std::vector<impl::TrainingFrame>& picked_frames) {
   const int r = model.latent_dim;
-  const std::size_t P = model.num_points();
+  // The points the training runs hold: every point, or those they were read at (their point_ids, the model's ids).
+  const std::vector<std::size_t>& held = data.train.runs.front().point_ids;
+  const std::size_t P = data.train.runs.front().num_points;
   const std::size_t T = picked_frames.size();
-  // Candidates: about 512 spread evenly.
+  // Candidates: about 512 of the held points spread evenly; subset names them by the model's ids.
+  std::vector<std::size_t> local;
   std::vector<int> subset;
-  for (std::size_t p = 0; p < P; p += std::max<std::size_t>(1, P / 512)) subset.push_back(int(p));
+  for (std::size_t p = 0; p < P; p += std::max<std::size_t>(1, P / 512)) {
+    local.push_back(p);
+    subset.push_back(int(held.empty() ? p : held[p]));
+  }
   const std::size_t S = subset.size();
   std::vector<double> Xs(S * 3);
   for (std::size_t s = 0; s < S; ++s) std::copy_n(&model.X[std::size_t(subset[s]) * 3], 3, &Xs[s * 3]);
@@ -116,8 +122,7 @@ GreedyFit greedy_fit(const Model& model, const TrainingData& data,
   for (std::size_t t = 0; t < T; ++t) {
     const Snapshot& run = data.train.runs[picked_frames[t].run];
     for (std::size_t s = 0; s < S; ++s)
-      std::copy_n(run.v.begin() + (picked_frames[t].frame * P + std::size_t(subset[s])) * 3, 3,
-                  V.begin() + (t * S + s) * 3);
+      std::copy_n(run.v.begin() + (picked_frames[t].frame * P + local[s]) * 3, 3, V.begin() + (t * S + s) * 3);
   }
   return {r, T, S, std::move(subset), std::move(Jh), std::move(V)};
 }

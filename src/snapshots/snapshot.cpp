@@ -22,6 +22,7 @@ namespace {
 
 using impl::bad;
 using impl::number_string;
+using impl::product;
 using impl::read_checked;
 using impl::require_finite;
 using impl::require_positive;
@@ -219,9 +220,61 @@ SnapshotHeader read_header(const hdf5::File& file, const std::string& path) {
 
 }  // namespace
 
+SnapshotReference read_snapshot_reference(const std::string& path) {
+  const hdf5::File file = open_complete_snapshot(path);
+  const hdf5::Group reference = file.group("reference");
+  const auto X_shape = reference.dataset("X").shape();
+  if (X_shape.size() != 2 || X_shape[1] != 3 || X_shape[0] == 0)
+    bad(path, "dataset /reference/X has shape " + shape_string(X_shape) + ", expected (points, 3) with points > 0");
+  const std::size_t n = X_shape[0];
+  const std::string expectation = "for " + std::to_string(n) + " points";
+  SnapshotReference points{read_checked(path, reference.dataset("X"), {n, 3}, expectation),
+                           read_checked(path, reference.dataset("mass"), {n}, expectation),
+                           read_checked(path, reference.dataset("volume"), {n}, expectation)};
+  require_positive(path, "/reference/mass", points.mass.data(), n);
+  require_positive(path, "/reference/volume", points.volume.data(), n);
+  return points;
+}
+
 SnapshotHeader read_snapshot_header(const std::string& path) { return read_header(open_complete_snapshot(path), path); }
 
-Snapshot read_snapshot(const std::string& path, SnapshotFields fields) {
+namespace {
+
+// values (rows of `width` numbers) at the given rows only.
+std::vector<double> rows_at(const std::vector<double>& values, std::size_t width,
+                            const std::vector<std::size_t>& rows) {
+  std::vector<double> kept;
+  kept.reserve(rows.size() * width);
+  for (const std::size_t row : rows)
+    kept.insert(kept.end(), values.begin() + row * width, values.begin() + (row + 1) * width);
+  return kept;
+}
+
+// A (frames, points, ...) field at the given points, read a frame at a time with read_checked's checks.
+std::vector<double> field_at(const std::string& path, const hdf5::Dataset& dataset,
+                             const std::vector<std::size_t>& expected_shape, const std::string& expectation,
+                             const std::vector<std::size_t>& points) {
+  const auto shape = dataset.shape();
+  if (shape != expected_shape)
+    bad(path, "dataset " + dataset.path() + " has shape " + shape_string(shape) + ", expected " +
+                  shape_string(expected_shape) + " " + expectation);
+  const std::vector<std::size_t> entry_shape(shape.begin() + 1, shape.end());
+  const std::size_t width = product(entry_shape) / shape[1];
+  std::vector<double> kept;
+  kept.reserve(shape[0] * points.size() * width);
+  for (std::size_t frame = 0; frame < shape[0]; ++frame) {
+    const auto entry = dataset.read_entry(frame);
+    require_finite(path, "dataset " + dataset.path() + " (frame " + std::to_string(frame) + ")", entry.data(),
+                   entry_shape);
+    const auto rows = rows_at(entry, width, points);
+    kept.insert(kept.end(), rows.begin(), rows.end());
+  }
+  return kept;
+}
+
+}  // namespace
+
+Snapshot read_snapshot(const std::string& path, SnapshotFields fields, const std::vector<std::size_t>& points) {
   const hdf5::File file = open_complete_snapshot(path);
   Snapshot snapshot;
   snapshot.precision = file.string_attribute("precision");
@@ -247,11 +300,17 @@ Snapshot read_snapshot(const std::string& path, SnapshotFields fields) {
   snapshot.mass = read_checked(path, reference.dataset("mass"), {n}, expectation);
   snapshot.volume = read_checked(path, reference.dataset("volume"), {n}, expectation);
   snapshot.time = read_checked(path, file.dataset("time"), {frames}, expectation);
-  snapshot.x = read_checked(path, file.dataset("x"), {frames, n, 3}, expectation);
-  snapshot.v = read_checked(path, file.dataset("v"), {frames, n, 3}, expectation);
-  snapshot.F = read_checked(path, file.dataset("F"), {frames, n, 3, 3}, expectation);
+  const auto read_field = [&](const char* name, std::vector<std::size_t> shape) {
+    return points.empty() ? read_checked(path, file.dataset(name), shape, expectation)
+                          : field_at(path, file.dataset(name), shape, expectation, points);
+  };
+  for (const std::size_t p : points)
+    if (p >= n) bad(path, "point " + std::to_string(p) + " asked for, the run has " + std::to_string(n));
+  snapshot.x = read_field("x", {frames, n, 3});
+  snapshot.v = read_field("v", {frames, n, 3});
+  snapshot.F = read_field("F", {frames, n, 3, 3});
   if (fields == SnapshotFields::All) {
-    snapshot.C = read_checked(path, file.dataset("C"), {frames, n, 3, 3}, expectation);
+    snapshot.C = read_field("C", {frames, n, 3, 3});
   } else if (const auto shape = file.dataset("C").shape(); shape != std::vector<std::size_t>{frames, n, 3, 3}) {
     bad(path, "dataset /C has shape " + shape_string(shape) + ", expected " + shape_string({frames, n, 3, 3}) + " " +
                   expectation);
@@ -262,6 +321,13 @@ Snapshot read_snapshot(const std::string& path, SnapshotFields fields) {
     if (!(snapshot.time[frame] > snapshot.time[frame - 1])) {
       bad(path, "time of frame " + std::to_string(frame) + " is not after the previous frame's");
     }
+  }
+  if (!points.empty()) {
+    snapshot.X = rows_at(snapshot.X, 3, points);
+    snapshot.mass = rows_at(snapshot.mass, 1, points);
+    snapshot.volume = rows_at(snapshot.volume, 1, points);
+    snapshot.num_points = points.size();
+    snapshot.point_ids = points;
   }
   return snapshot;
 }

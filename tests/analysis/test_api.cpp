@@ -1,6 +1,7 @@
 // The deployment API (rollout_batch.hpp) against the batch driver the command line uses: a batch advanced output
 // interval by output interval reproduces run_rollouts bit for bit (same kernels, same order, same backend), decodes
-// to the same fields, and refuses bad requests with a clear error.
+// to the same fields, and refuses bad requests with a clear error; a model trained from the fixture's sweep read at
+// some of its points keeps the whole body.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -98,6 +99,43 @@ TEST_F(RolloutBatchApi, StoredSampleRankingIsTheGreedySelection) {
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("pass --data"), std::string::npos) << e.what();
   }
+}
+
+// Training runs read at some points (max_points): the same sorted points in every training run, the test runs whole,
+// the whole reference kept; a model trained on them holds every point, and its greedy ranking names the model's
+// points. At or above the runs' count nothing is left out.
+TEST_F(RolloutBatchApi, TrainingAtSomePointsKeepsTheWholeBody) {
+  const auto whole = load_training_data({(dir_ / "sweep").string()});
+  const std::size_t P = whole.train.runs.front().num_points, kept = P / 3;
+  const auto data = load_training_data({(dir_ / "sweep").string()}, {}, SnapshotFields::WithoutAffine, kept, 5);
+  const auto& ids = data.train.runs.front().point_ids;
+  ASSERT_EQ(ids.size(), kept);
+  EXPECT_TRUE(std::is_sorted(ids.begin(), ids.end()));
+  EXPECT_EQ(std::adjacent_find(ids.begin(), ids.end()), ids.end());
+  EXPECT_LT(ids.back(), P);
+  for (const auto& run : data.train.runs) {
+    EXPECT_EQ(run.point_ids, ids);
+    EXPECT_EQ(run.num_points, kept);
+  }
+  for (const auto& run : data.test.runs) EXPECT_EQ(run.num_points, P);
+  EXPECT_EQ(data.reference.X, whole.train.runs.front().X);
+  EXPECT_EQ(data.reference.mass, whole.train.runs.front().mass);
+
+  TrainingSettings settings;
+  settings.latent_dim = 2;
+  settings.width = 8;
+  settings.depth = 3;
+  settings.epochs = 10;
+  settings.max_points = int(kept);
+  const Model model = train_model(data, settings, "", false);
+  EXPECT_EQ(model.num_points(), P);
+  EXPECT_EQ(model.X, whole.train.runs.front().X);
+  EXPECT_TRUE(std::isfinite(model.errors["test"]["position_error"].get<double>()));
+  for (const auto p : rank_samples_greedily(model, data, 10)) EXPECT_LT(std::size_t(p), P);
+
+  const auto all = load_training_data({(dir_ / "sweep").string()}, {}, SnapshotFields::WithoutAffine, P, 5);
+  EXPECT_TRUE(all.train.runs.front().point_ids.empty());
+  EXPECT_TRUE(all.reference.X.empty());
 }
 
 // The default hyper-reduction: the set `mpmrom train --scene` stores is the greedy projection selection with fitted

@@ -143,6 +143,45 @@ TEST_F(SnapshotTest, RoundTripPreservesEveryValueAndTheHeader) {
   }
 }
 
+// Read at some points (in any order), a run holds exactly those points' values of the whole read, frame by frame;
+// a point past the run's count is refused with one line naming the file.
+TEST_F(SnapshotTest, ReadingAtSomePointsKeepsExactlyTheirValues) {
+  const auto run = synthetic_run();
+  write_run(path("run.h5"), run);
+  const Snapshot all = read_snapshot(path("run.h5"));
+  const std::vector<std::size_t> points{run.n - 1, 0, 2};
+  const Snapshot some = read_snapshot(path("run.h5"), SnapshotFields::All, points);
+  EXPECT_EQ(some.point_ids, points);
+  ASSERT_EQ(some.num_points, points.size());
+  EXPECT_EQ(some.num_frames, all.num_frames);
+  EXPECT_EQ(some.time, all.time);
+  const auto expect_rows = [&](const std::vector<double>& kept, const std::vector<double>& whole, std::size_t width,
+                               std::size_t frames, const char* what) {
+    ASSERT_EQ(kept.size(), frames * points.size() * width) << what;
+    for (std::size_t f = 0; f < frames; ++f)
+      for (std::size_t i = 0; i < points.size(); ++i)
+        for (std::size_t k = 0; k < width; ++k)
+          ASSERT_EQ(kept[(f * points.size() + i) * width + k], whole[(f * all.num_points + points[i]) * width + k])
+              << what << " frame " << f << " point " << points[i];
+  };
+  expect_rows(some.X, all.X, 3, 1, "X");
+  expect_rows(some.mass, all.mass, 1, 1, "mass");
+  expect_rows(some.volume, all.volume, 1, 1, "volume");
+  expect_rows(some.x, all.x, 3, all.num_frames, "x");
+  expect_rows(some.v, all.v, 3, all.num_frames, "v");
+  expect_rows(some.F, all.F, 9, all.num_frames, "F");
+  expect_rows(some.C, all.C, 9, all.num_frames, "C");
+  try {
+    read_snapshot(path("run.h5"), SnapshotFields::WithoutAffine, {0, run.n});
+    ADD_FAILURE() << "a point past the run's count was read";
+  } catch (const std::runtime_error& error) {
+    const std::string message = error.what();
+    EXPECT_NE(message.find("the run has " + std::to_string(run.n)), std::string::npos) << message;
+    EXPECT_NE(message.find(path("run.h5")), std::string::npos) << message;
+    EXPECT_EQ(message.find('\n'), std::string::npos) << message;
+  }
+}
+
 TEST_F(SnapshotTest, RoundTripOfARunWithoutParametersOrFrames) {
   auto run = synthetic_run(0);
   run.header.parameters.clear();

@@ -55,9 +55,11 @@ Model start_model(const TrainingData& data, const TrainingSettings& settings, Tr
   model.width = settings.width;
   model.depth = settings.depth;
   model.runs = data.train.files;
-  model.X = first.X;
-  model.mass = first.mass;
-  model.volume = first.volume;
+  // Runs read at some of the points (load_training_data's max_points): the model keeps every point's reference.
+  const bool subset = !data.reference.X.empty();
+  model.X = subset ? data.reference.X : first.X;
+  model.mass = subset ? data.reference.mass : first.mass;
+  model.volume = subset ? data.reference.volume : first.volume;
   model.scene_name = first.header.scene_name;
   model.scene_text = first.header.scene_text;
   model.settings = settings.to_json();
@@ -72,6 +74,7 @@ Model start_model(const TrainingData& data, const TrainingSettings& settings, Tr
     for (std::size_t f = 0; f < runs[run].num_frames; ++f) targets.snapshots.push_back({&runs[run], f});
   }
   targets.points = first.num_points;
+  targets.X = first.X;
   targets.affine = settings.lambda_affine > 0;
   return model;
 }
@@ -104,7 +107,7 @@ void set_scales(Model& model, const TrainingTargets& targets, const std::vector<
         for (int i = 0; i < 9; ++i) sum_CF2 += CF[i] * CF[i];
       }
       for (int d = 0; d < 3; ++d) {
-        const double u = x[std::size_t(p) * 3 + d] - model.X[3 * p + d];
+        const double u = x[std::size_t(p) * 3 + d] - targets.X[3 * std::size_t(p) + d];
         displacement.push_back(u);
         sum_u2 += u * u;
         const double vel = v[std::size_t(p) * 3 + d];
@@ -146,7 +149,8 @@ void set_initial_parameters(Model& model, const TrainingSettings& settings, cons
     for (std::size_t i = 0; i < pca_points.size(); ++i)
       for (int d = 0; d < 3; ++d)
         rows[(std::size_t(s) * pca_points.size() + i) * 3 + d] =
-            targets.x(std::size_t(s))[std::size_t(pca_points[i]) * 3 + d] - model.X[3 * pca_points[i] + d];
+            targets.x(std::size_t(s))[std::size_t(pca_points[i]) * 3 + d] -
+            targets.X[3 * std::size_t(pca_points[i]) + d];
   model.codes = principal_coordinates(rows, S, pca_points.size() * 3, settings.latent_dim);
 }
 

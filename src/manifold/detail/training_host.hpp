@@ -20,7 +20,8 @@ namespace mpmrom::impl {
 struct TrainingTargets {
   RateStencil stencil;
   std::size_t points = 0;
-  bool affine = false;  // lambda3 > 0: the affine term's C F, made from the runs' C and F where it is read
+  std::vector<double> X;  // (points, 3): the trained points' reference positions (all of the model's, or a subset)
+  bool affine = false;    // lambda3 > 0: the affine term's C F, made from the runs' C and F where it is read
 
   struct Frame {
     const Snapshot* run;

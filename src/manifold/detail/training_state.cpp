@@ -62,7 +62,7 @@ TrainingSizes sizes_of(const Model& model, const TrainingSettings& settings, con
 
 DeviceState upload_state(const Model& model, const OptimizerState& optimizer, const TrainingTargets& targets,
                          const TrainingSettings& settings, const TrainingSizes& n) {
-  const int P = int(model.num_points());
+  const int P = int(targets.points);
   DeviceState d;
   std::vector<double> all_params = model.weights;
   all_params.insert(all_params.end(), model.codes.begin(), model.codes.end());
@@ -78,7 +78,7 @@ DeviceState upload_state(const Model& model, const OptimizerState& optimizer, co
   d.table.rate_to = upload_indices("mpmrom::train::rate_to", targets.stencil.to);
   d.table.rate_inv_dt = upload<Vector>("mpmrom::train::rate_inv_dt", targets.stencil.inv_dt, n.S);
 
-  d.batch.X = upload<Matrix>("mpmrom::train::X", model.X, P, 3);
+  d.batch.X = upload<Matrix>("mpmrom::train::X", targets.X, P, 3);
   d.batch.x = upload_snapshots("mpmrom::train::x", targets, n, 3,
                                [&](std::size_t s, std::size_t p) { return targets.x(s) + 3 * p; });
   d.batch.F = upload_snapshots("mpmrom::train::F", targets, n, 9,
