@@ -12,6 +12,7 @@
 #include <set>
 #include <sstream>
 #include <stdexcept>
+#include <utility>
 
 #include "io/file_checks.hpp"
 #include "io/xdmf.hpp"
@@ -220,8 +221,10 @@ SnapshotHeader read_header(const hdf5::File& file, const std::string& path) {
 
 }  // namespace
 
-SnapshotReference read_snapshot_reference(const std::string& path) {
-  const hdf5::File file = open_complete_snapshot(path);
+namespace {
+
+// /reference of an open snapshot: X's shape, then X, mass and volume read and checked (positive masses and volumes).
+SnapshotReference read_reference(const hdf5::File& file, const std::string& path) {
   const hdf5::Group reference = file.group("reference");
   const auto X_shape = reference.dataset("X").shape();
   if (X_shape.size() != 2 || X_shape[1] != 3 || X_shape[0] == 0)
@@ -234,6 +237,12 @@ SnapshotReference read_snapshot_reference(const std::string& path) {
   require_positive(path, "/reference/mass", points.mass.data(), n);
   require_positive(path, "/reference/volume", points.volume.data(), n);
   return points;
+}
+
+}  // namespace
+
+SnapshotReference read_snapshot_reference(const std::string& path) {
+  return read_reference(open_complete_snapshot(path), path);
 }
 
 SnapshotHeader read_snapshot_header(const std::string& path) { return read_header(open_complete_snapshot(path), path); }
@@ -266,8 +275,8 @@ std::vector<double> field_at(const std::string& path, const hdf5::Dataset& datas
     const auto entry = dataset.read_entry(frame);
     require_finite(path, "dataset " + dataset.path() + " (frame " + std::to_string(frame) + ")", entry.data(),
                    entry_shape);
-    const auto rows = rows_at(entry, width, points);
-    kept.insert(kept.end(), rows.begin(), rows.end());
+    for (const std::size_t p : points)
+      kept.insert(kept.end(), entry.begin() + p * width, entry.begin() + (p + 1) * width);
   }
   return kept;
 }
@@ -285,20 +294,16 @@ Snapshot read_snapshot(const std::string& path, SnapshotFields fields, const std
   snapshot.git_commit = file.string_attribute("git_commit");
   snapshot.header = read_header(file, path);
 
-  const hdf5::Group reference = file.group("reference");
-  const auto X_shape = reference.dataset("X").shape();
-  if (X_shape.size() != 2 || X_shape[1] != 3 || X_shape[0] == 0) {
-    bad(path, "dataset /reference/X has shape " + shape_string(X_shape) + ", expected (points, 3) with points > 0");
-  }
+  SnapshotReference reference = read_reference(file, path);
   const auto time_shape = file.dataset("time").shape();
   if (time_shape.size() != 1) bad(path, "dataset /time has shape " + shape_string(time_shape) + ", expected (frames)");
-  const std::size_t n = X_shape[0], frames = time_shape[0];
+  const std::size_t n = reference.mass.size(), frames = time_shape[0];
   snapshot.num_points = n;
   snapshot.num_frames = frames;
+  snapshot.X = std::move(reference.X);
+  snapshot.mass = std::move(reference.mass);
+  snapshot.volume = std::move(reference.volume);
   const std::string expectation = "for " + std::to_string(n) + " points and " + std::to_string(frames) + " frames";
-  snapshot.X = read_checked(path, reference.dataset("X"), {n, 3}, expectation);
-  snapshot.mass = read_checked(path, reference.dataset("mass"), {n}, expectation);
-  snapshot.volume = read_checked(path, reference.dataset("volume"), {n}, expectation);
   snapshot.time = read_checked(path, file.dataset("time"), {frames}, expectation);
   const auto read_field = [&](const char* name, std::vector<std::size_t> shape) {
     return points.empty() ? read_checked(path, file.dataset(name), shape, expectation)
@@ -315,8 +320,6 @@ Snapshot read_snapshot(const std::string& path, SnapshotFields fields, const std
     bad(path, "dataset /C has shape " + shape_string(shape) + ", expected " + shape_string({frames, n, 3, 3}) + " " +
                   expectation);
   }
-  require_positive(path, "/reference/mass", snapshot.mass.data(), n);
-  require_positive(path, "/reference/volume", snapshot.volume.data(), n);
   for (std::size_t frame = 1; frame < frames; ++frame) {
     if (!(snapshot.time[frame] > snapshot.time[frame - 1])) {
       bad(path, "time of frame " + std::to_string(frame) + " is not after the previous frame's");
