@@ -47,6 +47,16 @@ inline void add_network_shape(CLI::App* command, int& latent_dim, int& width, in
   add_defaulted(command, "--depth", depth, "Affine layers (depth - 1 hidden ELU layers)");
 }
 
+// The loss's weights (paper's (7) and the affine term), as train and pipeline take them.
+inline void add_loss_weights(CLI::App* command, double& lambda_gradient, double& lambda_velocity,
+                             double& lambda_affine) {
+  add_defaulted(command, "--lambda-grad", lambda_gradient, "lambda1: weight of the dg/dX - F misfit (relative)");
+  add_defaulted(command, "--lambda-vel", lambda_velocity,
+                "lambda2: weight of the dg/dxhat xhatdot - v misfit (relative)");
+  add_defaulted(command, "--lambda-affine", lambda_affine,
+                "lambda3: weight of the Fdot - C F misfit, C the runs' APIC matrix (relative; not the paper's)");
+}
+
 // In the order `mpmrom --help` lists them.
 void add_info(CLI::App& app, Commands& commands);
 void add_simulate(CLI::App& app, Commands& commands);

@@ -49,6 +49,8 @@ void add_pipeline(CLI::App& app, Commands& commands) {
                       "Networks to train, r x width x depth (e.g. 5x48x5 3x16x5); default: train's defaults, or "
                       "r in {3,5,8} x width in {16,32,48} with --target-error");
   add_defaulted(command, "--epochs", o->pipeline_settings.training.epochs, "Training epochs per network");
+  add_loss_weights(command, o->pipeline_settings.training.lambda_gradient,
+                   o->pipeline_settings.training.lambda_velocity, o->pipeline_settings.training.lambda_affine);
   add_defaulted(command, "--methods", o->pipeline_methods,
                 "ROM algorithms: point (Algorithm 1), node (Algorithm 2), galerkin; default: point galerkin");
   add_defaulted(command, "--samples", o->pipeline_settings.samples, "Sample counts to try (0: all points)");

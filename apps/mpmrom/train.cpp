@@ -120,12 +120,7 @@ void add_train(CLI::App& app, Commands& commands) {
             CLI::ExistingPath);
   command->add_option("--out", o->model_path, "Model file to write (HDF5)")->required();
   add_network_shape(command, o->training.latent_dim, o->training.width, o->training.depth);
-  add_defaulted(command, "--lambda-grad", o->training.lambda_gradient,
-                "lambda1: weight of the dg/dX - F misfit (relative)");
-  add_defaulted(command, "--lambda-vel", o->training.lambda_velocity,
-                "lambda2: weight of the dg/dxhat xhatdot - v misfit (relative)");
-  add_defaulted(command, "--lambda-affine", o->training.lambda_affine,
-                "lambda3: weight of the Fdot - C F misfit, C the runs' APIC matrix (relative; not the paper's)");
+  add_loss_weights(command, o->training.lambda_gradient, o->training.lambda_velocity, o->training.lambda_affine);
   add_defaulted(command, "--epochs", o->training.epochs, "Epochs (each visits every training snapshot once)");
   add_defaulted(command, "--batch-snapshots", o->training.batch_snapshots, "Snapshots per minibatch");
   add_defaulted(command, "--points-per-snapshot", o->training.points_per_snapshot,
