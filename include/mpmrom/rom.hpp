@@ -216,9 +216,11 @@ class ProjectionSelector {
   std::shared_ptr<const Increments> increments_;
 };
 
-// Node set, neighbours and quadrature points for the given samples, from the motion of the model's training codes.
+// Node set, neighbours and quadrature points for the given samples, from the motion of the model's training codes:
+// all of them, or those listed in `codes` (a probe from a few training states needs only theirs and their
+// neighbours in time; the sets then cover the paths between listed codes that follow each other in time).
 HyperReduction build_hyper_reduction(const Model& model, const Scene& scene, const RomSettings& settings,
-                                     const std::vector<int>& samples);
+                                     const std::vector<int>& samples, const std::vector<int>& codes = {});
 
 // Everything settings ask of the hyper-reduction: the samples (select_samples, or the greedy projection's: the
 // model's stored set when it has one of settings.samples, else fitted to the snapshots), their sets, and their

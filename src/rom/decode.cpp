@@ -45,13 +45,19 @@ NetworkFields evaluate_network(const Model& model, const std::vector<double>& X,
 
 }  // namespace
 
-std::vector<double> impl::training_positions(const Model& model) {
+std::vector<double> impl::training_positions(const Model& model, const std::vector<int>& chosen) {
   const nn::MlpLayout layout = model.layout();
   const Vector params = upload<Vector>("mpmrom::rom::params", model.weights, layout.num_params);
   const auto mlp = impl::device_mlp(model, params);
-  const std::size_t P = model.num_points(), C = model.num_codes();
+  const std::size_t P = model.num_points(), C = chosen.empty() ? model.num_codes() : chosen.size();
+  const std::size_t r = std::size_t(model.latent_dim);
+  std::vector<double> values = model.codes;
+  if (!chosen.empty()) {
+    values.resize(C * r);
+    for (std::size_t c = 0; c < C; ++c) std::copy_n(&model.codes.at(std::size_t(chosen[c]) * r), r, &values[c * r]);
+  }
   const Matrix X = upload<Matrix>("mpmrom::rom::X", model.X, P, 3);
-  const Matrix codes = upload<Matrix>("mpmrom::rom::codes", model.codes, C, model.latent_dim);
+  const Matrix codes = upload<Matrix>("mpmrom::rom::codes", values, C, model.latent_dim);
   Cube g("mpmrom::rom::training_positions", C, P, 3);
   nn::evaluate(ExecutionSpace(), mlp, nn::PointsView<real_t, MemorySpace>(X), Codes(codes), g);
   return download(g);

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdint>
 #include <map>
+#include <numeric>
 #include <set>
 #include <unordered_map>
 #include <vector>
@@ -268,20 +269,31 @@ HyperReduction impl::hyper_reduction_from_motion(const Scene& scene, const RomSe
 }
 
 HyperReduction build_hyper_reduction(const Model& model, const Scene& scene, const RomSettings& settings,
-                                     const std::vector<int>& samples) {
+                                     const std::vector<int>& samples, const std::vector<int>& codes) {
   // The Galerkin step needs no node set, so not the training motion of every point either (codes x points x 3
   // values: 6.9 GB for the 10^6 scene's r = 8 model)
   if (settings.method == RomMethod::Galerkin)
     return impl::hyper_reduction_from_motion(scene, settings, samples, {}, 0, {});
-  // Each training code's successor in time within its run.
+  // The motion's configurations: the listed codes (every code when none are), each followed in time by the next code
+  // of its run when that one is listed too.
+  std::vector<int> listed = codes;
+  if (listed.empty()) {
+    listed.resize(model.num_codes());
+    std::iota(listed.begin(), listed.end(), 0);
+  }
+  std::vector<int> in_list(model.num_codes(), -1);
+  for (std::size_t k = 0; k < listed.size(); ++k) in_list.at(std::size_t(listed[k])) = int(k);
   std::map<std::int64_t, std::vector<int>> run_codes;
   for (std::size_t c = 0; c < model.num_codes(); ++c) run_codes[model.code_run[c]].push_back(int(c));
-  std::vector<int> next(model.num_codes(), -1);
-  for (auto& [run, codes] : run_codes) {
-    std::sort(codes.begin(), codes.end(), [&](int a, int b) { return model.code_time[a] < model.code_time[b]; });
-    for (std::size_t k = 0; k + 1 < codes.size(); ++k) next[std::size_t(codes[k])] = codes[k + 1];
+  std::vector<int> next(listed.size(), -1);
+  for (auto& [run, ordered] : run_codes) {
+    std::sort(ordered.begin(), ordered.end(), [&](int a, int b) { return model.code_time[a] < model.code_time[b]; });
+    for (std::size_t k = 0; k + 1 < ordered.size(); ++k) {
+      const int from = in_list[std::size_t(ordered[k])], to = in_list[std::size_t(ordered[k + 1])];
+      if (from >= 0 && to >= 0) next[std::size_t(from)] = to;
+    }
   }
-  return impl::hyper_reduction_from_motion(scene, settings, samples, impl::training_positions(model),
+  return impl::hyper_reduction_from_motion(scene, settings, samples, impl::training_positions(model, codes),
                                            model.num_points(), next);
 }
 

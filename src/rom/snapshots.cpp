@@ -8,6 +8,7 @@
 #include <memory>
 #include <numeric>
 #include <stdexcept>
+#include <set>
 #include <string>
 #include <unordered_map>
 #include <utility>
@@ -67,11 +68,13 @@ std::vector<RolloutCase> training_cases(const Scene& scene, std::size_t max_roll
 
 // A stepper of the method's snapshots over the cases, sampling `points` (every point, or the candidates of a large
 // body): the Galerkin step fits its own quantities (mass matrix, momentum, reduced force), the grid methods
-// Algorithm 1's (mass matrix, the sub-step's velocity increment).
+// Algorithm 1's (mass matrix, the sub-step's velocity increment). Its node sets cover the motion of the training
+// codes listed (empty: every code).
 std::unique_ptr<impl::BatchStepperBase> snapshot_stepper(const Model& model, const std::string& scene_path,
                                                          const Scene& scene, const RomSettings& settings,
                                                          const std::vector<RolloutCase>& cases,
-                                                         const std::vector<int>& points) {
+                                                         const std::vector<int>& points,
+                                                         const std::vector<int>& codes = {}) {
   RomSettings sampled = settings;
   sampled.method = settings.method == RomMethod::Galerkin ? RomMethod::Galerkin : RomMethod::MaterialPoint;
   sampled.samples = points.size() == model.num_points() ? 0 : int(points.size());
@@ -79,7 +82,7 @@ std::unique_ptr<impl::BatchStepperBase> snapshot_stepper(const Model& model, con
   sampled.end_time = 0;  // the training runs' horizon, whatever the rollouts' own (--end-time)
   // Each sub-step's terms at its own state (a leapfrog takes them half a step on): the fits serve either integrator.
   sampled.integrator = TimeIntegrator::SymplecticEuler;
-  const HyperReduction reduction = build_hyper_reduction(model, scene, sampled, points);
+  const HyperReduction reduction = build_hyper_reduction(model, scene, sampled, points, codes);
   return impl::create_stepper(model, scene_path, scene.design.names, cases, sampled, reduction);
 }
 
@@ -176,7 +179,8 @@ void use_grid_target(impl::BatchStepperBase& galerkin, impl::BatchStepperBase& g
 std::unique_ptr<impl::BatchStepperBase> grid_target_stepper(const Model& model, const std::string& scene_path,
                                                             const Scene& scene, const RomSettings& settings,
                                                             const std::vector<RolloutCase>& cases,
-                                                            const std::vector<int>& points) {
+                                                            const std::vector<int>& points,
+                                                            const std::vector<int>& codes = {}) {
   if (settings.method != RomMethod::Galerkin || settings.cubature_target != CubatureTarget::Grid) return nullptr;
   RomSettings grid = settings;
   grid.method = RomMethod::MaterialPoint;
@@ -184,7 +188,7 @@ std::unique_ptr<impl::BatchStepperBase> grid_target_stepper(const Model& model, 
   grid.galerkin_strain = GalerkinStrain::Continuum;
   grid.galerkin_transfer = false;
   grid.galerkin_node_average = false;
-  return snapshot_stepper(model, scene_path, scene, grid, cases, points);
+  return snapshot_stepper(model, scene_path, scene, grid, cases, points, codes);
 }
 
 // The all-point reduced model over at most max_rollouts of the scene's training design, at every output frame.
@@ -211,6 +215,21 @@ SnapshotStream reduced_motion(const Model& model, const std::string& scene_path,
   };
 }
 
+// The training codes a probe from each run's state at the given frames can move through: the code there and its
+// neighbours in time (the rate is their central difference), so that the probing steppers' node sets cover those
+// states alone, not the whole training motion (at 10^6 points and 936 codes, 22 GB of positions and most of the
+// fits' set-up: docs/rom.md "Sample weights").
+std::vector<int> probed_codes(const Model& model, const std::vector<int>& indices, const std::vector<int>& frames) {
+  std::set<int> codes;
+  for (const int index : indices) {
+    const std::vector<std::size_t> run = impl::codes_of_run(model, index);
+    for (const int f : frames)
+      for (int g = f - 1; g <= f + 1; ++g)
+        if (g >= 0 && std::size_t(g) < run.size()) codes.insert(int(run[std::size_t(g)]));
+  }
+  return {codes.begin(), codes.end()};
+}
+
 // One sub-step from the model's own training states (every point, or the candidates of a larger body): for up to
 // max_rollouts training runs of the scene's design, at up to 8 inner output frames spread evenly, xhat the run's code
 // there and xhatdot the central difference of its codes (as training defines the rate). Each snapshot costs one
@@ -226,10 +245,14 @@ SnapshotStream training_states(const Model& model, const std::string& scene_path
     const bool sampled = candidates.points.size() < model.num_points();
     const auto cases = impl::trained_cases(model, scene, max_rollouts, indices);
     const std::vector<int> rows = sampled ? candidates.points : every_point(model);
-    auto stepper = snapshot_stepper(model, scene_path, scene, settings, cases, rows);
-    auto grid = grid_target_stepper(model, scene_path, scene, settings, cases, every_point(model));
+    const int frames = scene.num_outputs + 1;  // the initial state and each output time
+    const std::vector<int> frames_probed = impl::inner_frames(frames, impl::max_state_frames);
+    const std::vector<int> codes = probed_codes(model, indices, frames_probed);
+    auto stepper = snapshot_stepper(model, scene_path, scene, settings, cases, rows, codes);
+    auto grid = grid_target_stepper(model, scene_path, scene, settings, cases, every_point(model), codes);
+    if (stepper->frames() != frames) throw std::logic_error("cubature: the stepper's frames are not the scene's");
     impl::BatchState state = stepper->state();
-    for (const int f : impl::inner_frames(stepper->frames(), impl::max_state_frames)) {
+    for (const int f : frames_probed) {
       state.frame = f;
       impl::training_state(model, indices, f, stepper->frames(), state.xhat, state.xhatdot);
       if (grid) {

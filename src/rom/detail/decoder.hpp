@@ -8,8 +8,8 @@
 
 namespace mpmrom::impl {
 
-// Positions of every reference point for every training code of the model: (codes, points, 3).
-std::vector<double> training_positions(const Model& model);
+// Positions of every reference point at the given training codes of the model (empty: every code): (codes, points, 3).
+std::vector<double> training_positions(const Model& model, const std::vector<int>& codes = {});
 
 // dg/dxhat of the model's network at points X (n, 3) for each of codes (count, r): (count, n, 3, r).
 std::vector<double> decoder_jacobians(const Model& model, const std::vector<double>& X,

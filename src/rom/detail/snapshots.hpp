@@ -40,6 +40,9 @@ using SnapshotStream = std::function<void(const std::function<void(const PointSn
 // The snapshots `snapshots` describes: the full-order runs, the all-point reduced motion or its training states.
 SnapshotStream snapshot_stream(const Model& model, const CubatureSnapshots& snapshots);
 
+// The model's codes of design run `index` (its file named run_<index>.h5 by the sweep), by time.
+std::vector<std::size_t> codes_of_run(const Model& model, int index);
+
 // The design's training runs whose codes the model holds (run_<index>.h5 of its sweep; the pipeline trains without
 // its validation runs), up to max_rollouts spread evenly, as rollout cases with their design indices (indices); throws
 // when the model holds none.

@@ -1,5 +1,6 @@
-// The deployment API's tests' shared fixture (test_api.cpp, test_offline_fits.cpp): a small pushed-block design swept
-// and a small network trained on it once per test executable, with the stored sample sets `mpmrom train` adds.
+// The deployment API's tests' shared fixture (analysis/test_api.cpp, test_offline_fits.cpp): a small pushed-block
+// design swept and a small network trained on it once per test executable, with the stored sample sets `mpmrom train`
+// adds.
 #pragma once
 
 #include <gtest/gtest.h>
