@@ -392,32 +392,41 @@ class BatchStepper final : public BatchStepperBase {
     using Projection = rom::ProjectSamples<ExecutionSpace, MemorySpace>;
     const bool positions = settings_.projection == ProjectionScheme::Position;
     const auto project = [&](bool first_pass) {
-      // a team thread per row of the normal equations on GPUs; host teams are one thread
-      Kokkos::parallel_for(
-          "mpmrom::rom::project",
-          (host_space ? Teams(space, B, Kokkos::AUTO, projection_lanes_) : Teams(space, B, r, projection_lanes_))
-              .set_scratch_size(0, Kokkos::PerTeam(Projection::scratch_bytes())),
-          Projection{r,
-                     samples_weight_,
-                     sample_J_,
-                     leapfrog ? start_v_ : sample_v_,
-                     sample_x_,
-                     trial_x_,
-                     xhat_,
-                     xhatdot_,
-                     xhat_next_,
-                     xhatdot_next_,
-                     guard_,
-                     real_t(settings_.rate_damping),
-                     dt,
-                     first_pass,
-                     positions && !first_pass,
-                     counters_.flags,
-                     counters_.max_condition,
-                     counters_.regularized,
-                     sample_force_,
-                     samples_force_weight_,
-                     leapfrog ? dt / 2 : real_t(0)});
+      const Projection projection{r,
+                                  samples_weight_,
+                                  sample_J_,
+                                  leapfrog ? start_v_ : sample_v_,
+                                  sample_x_,
+                                  trial_x_,
+                                  xhat_,
+                                  xhatdot_,
+                                  xhat_next_,
+                                  xhatdot_next_,
+                                  guard_,
+                                  real_t(settings_.rate_damping),
+                                  dt,
+                                  first_pass,
+                                  positions && !first_pass,
+                                  counters_.flags,
+                                  counters_.max_condition,
+                                  counters_.regularized,
+                                  sample_force_,
+                                  samples_force_weight_,
+                                  leapfrog ? dt / 2 : real_t(0)};
+      // A team thread per row of the normal equations on GPUs, as many as the kernel's registers allow (the team's
+      // threads stride over the rows: at r = 16 a team of 16 x 32 exceeded them on an H200); host teams are one
+      // thread (the bound is the kernel's, asked once: the query costs a driver call).
+      const auto scratch = Kokkos::PerTeam(Projection::scratch_bytes());
+      if (projection_threads_ == 0)
+        projection_threads_ = host_space ? 1
+                                         : std::min(r, Teams(space, B, 1, projection_lanes_)
+                                                           .set_scratch_size(0, scratch)
+                                                           .team_size_max(projection, Kokkos::ParallelForTag()));
+      Kokkos::parallel_for("mpmrom::rom::project",
+                           (host_space ? Teams(space, B, Kokkos::AUTO, projection_lanes_)
+                                       : Teams(space, B, projection_threads_, projection_lanes_))
+                               .set_scratch_size(0, scratch),
+                           projection);
     };
     project(true);
     // Re-project with J at the trial next state, so that the new state's own velocity field J(xhat_n+1) xhatdot
@@ -465,7 +474,8 @@ class BatchStepper final : public BatchStepperBase {
   TeamLaunch<Manifold, ExecutionSpace> sources_launch_, samples_launch_, nodes_launch_;
   bool gather_across_lanes_ = false;
   int projection_lanes_ = 1;
-  real_t max_speed_ = 0;  // fastest sample at the end of the last frame, for the next frame's time step
+  int projection_threads_ = 0;  // GPU teams' threads for the projection; 0: not asked yet
+  real_t max_speed_ = 0;        // fastest sample at the end of the last frame, for the next frame's time step
 
   Matrix points_X_, samples_X_, quadrature_x_;
   Vector points_mass_, points_volume_, quadrature_w_, samples_weight_, samples_force_weight_;

@@ -1,0 +1,110 @@
+// What keeps the reduced model's memory bounded on large bodies: the offline fits' probing steppers build node sets
+// over the training states they probe, not the whole training motion (rom/snapshots.cpp), and decoding runs a few codes
+// a pass (rom/decode.cpp), each the same as the unbounded way.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <numeric>
+#include <string>
+#include <vector>
+
+#include "fixtures.hpp"
+#include "manifold/trainer.hpp"
+#include "mpmrom/rom.hpp"
+#include "mpmrom/training_data.hpp"
+#include "rom/detail/decoder.hpp"
+#include "rom/detail/rollout_driver.hpp"
+#include "rom/detail/snapshots.hpp"
+#include "snapshots/simulate.hpp"
+
+namespace mpmrom::test {
+namespace {
+
+namespace fs = std::filesystem;
+
+// The grid step's probe from a training state (the Galerkin fits' target) with node sets built over the probed codes
+// alone (the state's code and its neighbours in time) gives what it gives over every training code: the sets are
+// smaller, and every node and source the sub-step reads is in both, so the velocities it hands back are the same
+// bitwise (a source outside the smaller sets lies beyond its stencil and adds exact zeros to the larger sets'
+// sums). The pushes carry the block several cells by the middle frame, so sets over another frame's codes would not
+// hold the probe (checked: over the first frame's code alone the velocities differ;
+// at a displacement of 1.5 cells they did not).
+// A pushed block whose pushes carry it several cells (up to 0.46 m on a 10 cm grid) by its middle frame, and a small
+// network trained on it, once for the file.
+class RomLargeBodies : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = fs::temp_directory_path() / ("mpmrom-test-large-bodies-" + std::to_string(::getpid()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    std::ofstream(scene_path()) << pushed_block_scene("pushed_block", 0.04, 4, 0.4, {8000.0, 12000.0}, 1);
+    sweep(scene_path(), (dir_ / "sweep").string(), default_p2g_strategy());
+    TrainingSettings training;
+    training.latent_dim = 2;
+    training.width = 8;
+    training.depth = 3;
+    training.epochs = 30;
+    const auto data = load_training_data({(dir_ / "sweep").string()});
+    save_model((dir_ / "model.h5").string(), train_model(data, training, "", false));
+  }
+  static void TearDownTestSuite() { fs::remove_all(dir_); }
+  static std::string scene_path() { return (dir_ / "scene.toml").string(); }
+  // the weights as stored, in the build's precision
+  static Model model() { return load_model((dir_ / "model.h5").string()); }
+  static inline fs::path dir_;
+};
+
+TEST_F(RomLargeBodies, GridProbeOverTheProbedCodesIsTheProbeOverEveryCode) {
+  const Model model = RomLargeBodies::model();
+  const Scene scene = load_scene(scene_path());
+  RomSettings grid;
+  grid.method = RomMethod::MaterialPoint;
+  grid.weighting = SampleWeighting::Mass;
+  std::vector<int> indices;
+  const auto cases = impl::trained_cases(model, scene, 1, indices);
+  ASSERT_EQ(cases.size(), 1u);
+  std::vector<int> every(model.num_points());
+  std::iota(every.begin(), every.end(), 0);
+  const int frames = scene.num_outputs + 1, frame = frames / 2;
+  const std::vector<std::size_t> run = impl::codes_of_run(model, indices[0]);
+  ASSERT_EQ(run.size(), std::size_t(frames));
+  const std::vector<int> probed = {int(run[frame - 1]), int(run[frame]), int(run[frame + 1])};
+  const HyperReduction over_every = build_hyper_reduction(model, scene, grid, every);
+  const HyperReduction over_probed = build_hyper_reduction(model, scene, grid, every, probed);
+  EXPECT_LT(over_probed.node_sources.size(), over_every.node_sources.size());  // the point of it
+  std::vector<std::vector<double>> velocities;
+  for (const HyperReduction* reduction : {&over_every, &over_probed}) {
+    auto stepper = impl::create_stepper(model, scene_path(), scene.design.names, cases, grid, *reduction);
+    impl::BatchState state = stepper->state();
+    state.frame = frame;
+    impl::training_state(model, indices, frame, frames, state.xhat, state.xhatdot);
+    stepper->restore(state);
+    ASSERT_GT(stepper->probe_substep(), 0.0);
+    EXPECT_EQ(stepper->flags(0), 0);
+    velocities.push_back(stepper->last_projection_inputs().velocity);
+  }
+  ASSERT_EQ(velocities[0].size(), 3 * model.num_points());
+  EXPECT_EQ(velocities[1], velocities[0]);
+}
+
+// Decoding a code a pass gives the fields of decoding every code in one pass, bit for bit: the network's value at
+// one point for one code does not depend on the others in its pass.
+TEST_F(RomLargeBodies, DecodingInPassesIsDecodingAtOnce) {
+  const Model model = RomLargeBodies::model();
+  const std::size_t r = std::size_t(model.latent_dim), frames = model.num_codes() / 2;
+  const std::vector<double> codes(model.codes.begin(), model.codes.begin() + std::ptrdiff_t(frames * r));
+  std::vector<double> rates(codes.size());
+  for (std::size_t i = 0; i < rates.size(); ++i) rates[i] = 0.1 * double(i % 7) - 0.3;
+  const DecodedFields at_once = impl::decode_in_passes(model, model.X, codes, rates, std::size_t(1) << 30);
+  const DecodedFields code_by_code = impl::decode_in_passes(model, model.X, codes, rates, 1);
+  ASSERT_EQ(at_once.x.size(), frames * 3 * model.num_points());
+  EXPECT_EQ(code_by_code.x, at_once.x);
+  EXPECT_EQ(code_by_code.v, at_once.v);
+  EXPECT_EQ(code_by_code.F, at_once.F);
+  EXPECT_EQ(decode(model, model.X, codes, rates).v, at_once.v);
+}
+
+}  // namespace
+}  // namespace mpmrom::test
