@@ -10,27 +10,15 @@
 #include <string>
 #include <vector>
 
-#include "fixtures.hpp"
-#include "manifold/trainer.hpp"
 #include "mpmrom/rom.hpp"
-#include "mpmrom/training_data.hpp"
+#include "rollout_batch_fixture.hpp"
 #include "rom/detail/decoder.hpp"
 #include "rom/detail/rollout_driver.hpp"
 #include "rom/detail/snapshots.hpp"
-#include "snapshots/simulate.hpp"
 
 namespace mpmrom::test {
 namespace {
 
-namespace fs = std::filesystem;
-
-// The grid step's probe from a training state (the Galerkin fits' target) with node sets built over the probed codes
-// alone (the state's code and its neighbours in time) gives what it gives over every training code: the sets are
-// smaller, and every node and source the sub-step reads is in both, so the velocities it hands back are the same
-// bitwise (a source outside the smaller sets lies beyond its stencil and adds exact zeros to the larger sets'
-// sums). The pushes carry the block several cells by the middle frame, so sets over another frame's codes would not
-// hold the probe (checked: over the first frame's code alone the velocities differ;
-// at a displacement of 1.5 cells they did not).
 // A pushed block whose pushes carry it several cells (up to 0.46 m on a 10 cm grid) by its middle frame, and a small
 // network trained on it, once for the file.
 class RomLargeBodies : public ::testing::Test {
@@ -40,14 +28,7 @@ class RomLargeBodies : public ::testing::Test {
     fs::remove_all(dir_);
     fs::create_directories(dir_);
     std::ofstream(scene_path()) << pushed_block_scene("pushed_block", 0.04, 4, 0.4, {8000.0, 12000.0}, 1);
-    sweep(scene_path(), (dir_ / "sweep").string(), default_p2g_strategy());
-    TrainingSettings training;
-    training.latent_dim = 2;
-    training.width = 8;
-    training.depth = 3;
-    training.epochs = 30;
-    const auto data = load_training_data({(dir_ / "sweep").string()});
-    save_model((dir_ / "model.h5").string(), train_model(data, training, "", false));
+    sweep_and_train_small_model(scene_path(), dir_, (dir_ / "model.h5").string());
   }
   static void TearDownTestSuite() { fs::remove_all(dir_); }
   static std::string scene_path() { return (dir_ / "scene.toml").string(); }
@@ -56,6 +37,13 @@ class RomLargeBodies : public ::testing::Test {
   static inline fs::path dir_;
 };
 
+// The grid step's probe from a training state (the Galerkin fits' target) with node sets built over the probed codes
+// alone (the state's code and its neighbours in time) gives what it gives over every training code: the sets are
+// smaller, and every node and source the sub-step reads is in both, so the velocities it hands back are the same
+// bitwise (a source outside the smaller sets lies beyond its stencil and adds exact zeros to the larger sets'
+// sums). The pushes carry the block several cells by the middle frame, so sets over another frame's codes would not
+// hold the probe (checked: over the first frame's code alone the velocities differ; at a displacement of 1.5 cells
+// they did not).
 TEST_F(RomLargeBodies, GridProbeOverTheProbedCodesIsTheProbeOverEveryCode) {
   const Model model = RomLargeBodies::model();
   const Scene scene = load_scene(scene_path());

@@ -22,6 +22,21 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// The scene file's design swept into dir/sweep and a small network (r = 2, 3 layers of 8, 30 epochs) trained on it,
+// written to model_path with the weights as stored; the sweep's training data, returned.
+inline TrainingData sweep_and_train_small_model(const std::string& scene_path, const fs::path& dir,
+                                                const std::string& model_path) {
+  sweep(scene_path, (dir / "sweep").string(), default_p2g_strategy());
+  TrainingSettings settings;
+  settings.latent_dim = 2;
+  settings.width = 8;
+  settings.depth = 3;
+  settings.epochs = 30;
+  auto data = load_training_data({(dir / "sweep").string()});
+  save_model(model_path, train_model(data, settings, "", false));
+  return data;
+}
+
 // Three pushes; 4 output frames over 0.04 s.
 const std::string kScene = pushed_block_scene("pushed_block", 0.04, 4, 0.4, {0.5, 1.0, 1.5}, 1);
 
@@ -32,14 +47,7 @@ class RolloutBatchApi : public ::testing::Test {
     fs::remove_all(dir_);
     fs::create_directories(dir_);
     std::ofstream(scene_path()) << kScene;
-    sweep(scene_path(), (dir_ / "sweep").string(), default_p2g_strategy());
-    TrainingSettings settings;
-    settings.latent_dim = 2;
-    settings.width = 8;
-    settings.depth = 3;
-    settings.epochs = 30;
-    const auto data = load_training_data({(dir_ / "sweep").string()});
-    save_model(unranked_model_path(), train_model(data, settings, "", false));
+    const auto data = sweep_and_train_small_model(scene_path(), dir_, unranked_model_path());
     Model model = load_model(unranked_model_path());  // the weights as stored, in the build's precision
     model.sample_ranking = rank_samples_greedily(model, data, ranked_samples);  // as `mpmrom train` stores it
     store_projection_samples(model, default_projection_selector(model, load_scene(scene_path())),
