@@ -217,8 +217,8 @@ SnapshotStream reduced_motion(const Model& model, const std::string& scene_path,
 
 // The training codes a probe from each run's state at the given frames can move through: the code there and its
 // neighbours in time (the rate is their central difference), so that the probing steppers' node sets cover those
-// states alone, not the whole training motion (at 10^6 points and 936 codes, 22 GB of positions and most of the
-// fits' set-up: docs/rom.md "Sample weights").
+// states alone, not the whole training motion (at 10^6 points and 936 codes, 22 GB of positions and a host scan of
+// each point at each code: docs/rom.md "Sample weights").
 std::vector<int> probed_codes(const Model& model, const std::vector<int>& indices, const std::vector<int>& frames) {
   std::set<int> codes;
   for (const int index : indices) {
