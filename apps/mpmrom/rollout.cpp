@@ -285,6 +285,11 @@ void add_rollout(CLI::App& app, Commands& commands) {
   add_defaulted(command, "--cubature-candidates", o->rom_settings.cubature_candidates,
                 "On a body of more points: the offline fits' candidates, spread evenly over it (set-up memory and "
                 "time grow with their square)");
+  add_defaulted(command, "--cubature-runs", o->rom_settings.cubature_runs,
+                "The training runs the offline fits probe or roll out, spread over the scene's design");
+  add_defaulted(
+      command, "--cubature-frames", o->rom_settings.cubature_frames,
+      "With --cubature-snapshots states: the inner output frames of each run probed, spread over its horizon");
   add_defaulted(command, "--cubature-target", o->cubature_target,
                 "With --method galerkin: what its cubature weights reproduce, its own all-point reduced force (own) "
                 "or the grid step's, Algorithm 1 with every point (grid); auto: grid with --method galerkin");

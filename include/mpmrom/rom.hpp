@@ -90,6 +90,11 @@ struct RomSettings {
   // The offline fits' candidate points on a larger body (every point on a smaller one): more fit the all-point sums
   // better, at a set-up cost that grows with their square (the fits' normal equations).
   int cubature_candidates = 2048;
+  // The training runs the offline fits probe (or roll out), spread over the design, and with --cubature-snapshots
+  // states the inner output frames of each they probe: more states generalise the fits to other parameters, at a
+  // set-up cost linear in their number (docs/rom.md "Sample weights").
+  int cubature_runs = 8;
+  int cubature_frames = 8;
   CubatureTarget cubature_target = CubatureTarget::Own;        // --method galerkin's weights (--cubature-target)
   GalerkinStrain galerkin_strain = GalerkinStrain::Continuum;  // --method galerkin's energy (--galerkin-strain)
   // With the grid strain: the momentum carried through the stencil's nodes as MPM's transfer carries it.

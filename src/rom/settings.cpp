@@ -139,6 +139,8 @@ nlohmann::json RomSettings::to_json() const {
           {"weights", to_string(fitted_weights(*this))},
           {"cubature_snapshots", to_string(snapshot_source)},
           {"cubature_candidates", cubature_candidates},
+          {"cubature_runs", cubature_runs},
+          {"cubature_frames", cubature_frames},
           {"cubature_target", to_string(cubature_target)},
           {"galerkin_strain", to_string(galerkin_strain)},
           {"galerkin_transfer", galerkin_transfer},
@@ -172,6 +174,8 @@ void RomSettings::validate() const {
     throw std::invalid_argument("--method galerkin takes --projection velocity");
   if (cubature_candidates < 16 || cubature_candidates > 65536)
     throw std::invalid_argument("--cubature-candidates must be in [16, 65536]");
+  if (cubature_runs < 1 || cubature_runs > 4096 || cubature_frames < 1 || cubature_frames > 4096)
+    throw std::invalid_argument("--cubature-runs and --cubature-frames must be in [1, 4096]");
   if (cubature_target == CubatureTarget::Grid && method != RomMethod::Galerkin)
     throw std::invalid_argument("--cubature-target grid is for --method galerkin (the grid methods fit the grid step)");
   if (cubature_target == CubatureTarget::Grid && snapshot_source == SnapshotSource::Full)

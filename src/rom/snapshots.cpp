@@ -231,9 +231,9 @@ std::vector<int> probed_codes(const Model& model, const std::vector<int>& indice
 }
 
 // One sub-step from the model's own training states (every point, or the candidates of a larger body): for up to
-// max_rollouts training runs of the scene's design, at up to 8 inner output frames spread evenly, xhat the run's code
-// there and xhatdot the central difference of its codes (as training defines the rate). Each snapshot costs one
-// sub-step, not a rollout: the source that scales.
+// max_rollouts training runs of the scene's design, at up to --cubature-frames inner output frames spread evenly, xhat
+// the run's code there and xhatdot the central difference of its codes (as training defines the rate). Each snapshot
+// costs one sub-step, not a rollout: the source that scales.
 SnapshotStream training_states(const Model& model, const std::string& scene_path, const RomSettings& settings,
                                std::size_t max_rollouts, std::size_t max_candidates) {
   return [&model, scene_path, settings, max_rollouts,
@@ -246,7 +246,7 @@ SnapshotStream training_states(const Model& model, const std::string& scene_path
     const auto cases = impl::trained_cases(model, scene, max_rollouts, indices);
     const std::vector<int> rows = sampled ? candidates.points : every_point(model);
     const int frames = scene.num_outputs + 1;  // the initial state and each output time
-    const std::vector<int> frames_probed = impl::inner_frames(frames, impl::max_state_frames);
+    const std::vector<int> frames_probed = impl::inner_frames(frames, settings.cubature_frames);
     const std::vector<int> codes = probed_codes(model, indices, frames_probed);
     auto stepper = snapshot_stepper(model, scene_path, scene, settings, cases, rows, codes);
     auto grid = grid_target_stepper(model, scene_path, scene, settings, cases, every_point(model), codes);
@@ -416,7 +416,7 @@ CubatureSnapshots cubature_snapshots(const Scene& scene, const RomSettings& sett
     // The Galerkin step's weights reproduce a force, which the grid step measures at the scene's time step and not
     // beyond it (its velocity change over a longer step is no longer the force: docs/results/rom/README.md).
     if (settings.method == RomMethod::Galerkin && settings.cfl > scene.cfl) snapshots.settings.cfl = 0;
-    snapshots.count = 8;  // rollouts (training runs), each at every output frame
+    snapshots.count = std::size_t(settings.cubature_runs);  // rollouts (training runs)
     return snapshots;
   }
   if (data == nullptr || data->train.runs.empty())

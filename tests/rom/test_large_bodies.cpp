@@ -1,6 +1,6 @@
 // What keeps the reduced model's memory bounded on large bodies: the offline fits' probing steppers build node sets
 // over the training states they probe, not the whole training motion (rom/snapshots.cpp), and decoding runs a few codes
-// a pass (rom/decode.cpp), each the same as the unbounded way.
+// a pass (rom/decode.cpp), each the same as the unbounded way; and how many training states the fits probe.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -19,15 +19,15 @@
 namespace mpmrom::test {
 namespace {
 
-// A pushed block whose pushes carry it several cells (up to 0.46 m on a 10 cm grid) by its middle frame, and a small
-// network trained on it, once for the file.
+// A pushed block whose pushes carry it several cells (up to 0.46 m on a 10 cm grid) by its middle frame (two training
+// runs, the middle push the test run), and a small network trained on it, once for the file.
 class RomLargeBodies : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     dir_ = fs::temp_directory_path() / ("mpmrom-test-large-bodies-" + std::to_string(::getpid()));
     fs::remove_all(dir_);
     fs::create_directories(dir_);
-    std::ofstream(scene_path()) << pushed_block_scene("pushed_block", 0.04, 4, 0.4, {8000.0, 12000.0}, 1);
+    std::ofstream(scene_path()) << pushed_block_scene("pushed_block", 0.04, 4, 0.4, {8000.0, 12000.0, 10000.0}, 2);
     sweep_and_train_small_model(scene_path(), dir_, (dir_ / "model.h5").string());
   }
   static void TearDownTestSuite() { fs::remove_all(dir_); }
@@ -92,6 +92,33 @@ TEST_F(RomLargeBodies, DecodingInPassesIsDecodingAtOnce) {
   EXPECT_EQ(code_by_code.v, at_once.v);
   EXPECT_EQ(code_by_code.F, at_once.F);
   EXPECT_EQ(decode(model, model.X, codes, rates).v, at_once.v);
+}
+
+// The Galerkin fits' training states: --cubature-runs training runs (at most the design's) at --cubature-frames inner
+// output frames each (at most the run's), one snapshot a state, each tagged with its run.
+TEST_F(RomLargeBodies, TrainingStatesAreTheRunsTimesTheFramesAsked) {
+  const Model model = RomLargeBodies::model();
+  const Scene scene = load_scene(scene_path());
+  const int inner = scene.num_outputs - 1;  // the frames with a code on both sides
+  ASSERT_GE(inner, 3);
+  RomSettings settings = rom_defaults(RomMethod::Galerkin);
+  settings.snapshot_source = SnapshotSource::States;
+  const auto count = [&](int runs, int frames) {
+    settings.cubature_runs = runs;
+    settings.cubature_frames = frames;
+    settings.validate();
+    std::vector<int> per_run(2, 0);
+    impl::snapshot_stream(model, cubature_snapshots(scene, settings, nullptr))([&](const impl::PointSnapshot& s) {
+      ASSERT_TRUE(s.run == 0 || s.run == 1);
+      ++per_run[std::size_t(s.run)];
+    });
+    return per_run;
+  };
+  EXPECT_EQ(count(1, 2), (std::vector<int>{2, 0}));
+  EXPECT_EQ(count(2, 1), (std::vector<int>{1, 1}));
+  EXPECT_EQ(count(8, 64), (std::vector<int>{inner, inner}));  // the scene's 2 training runs, each inner frame once
+  settings.cubature_frames = 0;
+  EXPECT_THROW(settings.validate(), std::invalid_argument);
 }
 
 }  // namespace

@@ -48,9 +48,9 @@ std::vector<std::size_t> codes_of_run(const Model& model, int index);
 // when the model holds none.
 std::vector<RolloutCase> trained_cases(const Model& model, const Scene& scene, std::size_t max_rollouts,
                                        std::vector<int>& indices);
-// The inner output frames a training run's offline probes take (the training-state snapshots, the time-step bound):
-// each is an all-point step on a large body; 8 of the poke scenes' 33 cut the 10^5 fits' set-up about threefold
-// (docs/rom.md "Sample weights").
+// The inner output frames of a training run the time-step bound probes (and the training-state snapshots' default,
+// --cubature-frames): each is an all-point step on a large body; 8 of the poke scenes' 33 cut the 10^5 fits' set-up
+// about threefold (docs/rom.md "Sample weights").
 inline constexpr int max_state_frames = 8;
 // At most max_frames of the inner output frames 1 .. frames - 2, spread evenly: the offline probes' states.
 std::vector<int> inner_frames(int frames, int max_frames);
