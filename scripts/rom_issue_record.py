@@ -16,7 +16,7 @@ record = json.load(open(src))
 errors, rollout = record["errors"]["test"], record["rollout"]
 reduction = rollout["hyper_reduction"]
 out = {"scene": scene, "method": method, "runs": "test", "samples": reduction["samples"],
-       "evaluated_points": reduction["source_points"] or reduction["samples"],
+       "evaluated_points": reduction.get("evaluated_points") or reduction["source_points"] or reduction["samples"],
        "position_error": errors["position_error"], "velocity_error": errors["velocity_error"],
        "stopped_rollouts": rollout["stopped_rollouts"], "flags": record["flags"], "model": record["model"],
        "commit": commit}

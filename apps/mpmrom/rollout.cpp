@@ -198,6 +198,7 @@ int run(Options o, const Context& context) {
   file.scene_text = scene.source_text;
   file.settings = o.rom_settings.to_json();
   file.hyper_reduction = reduction.summary();
+  file.hyper_reduction["evaluated_points"] = result.evaluated_points;
   if (!o.reduction_path.empty())  // where its sets come from: the fits' misfits and cost are that file's
     file.hyper_reduction["reused_from"] = std::filesystem::absolute(o.reduction_path).string();
   file.samples = reduction.samples;

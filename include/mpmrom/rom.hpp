@@ -273,6 +273,8 @@ struct RomResult {
   long steps = 0;            // time steps taken (each advances every rollout)
   double step_seconds = 0;   // wall time of the stepping alone, all steps
   double setup_seconds = 0;  // initial projection and device set-up
+  // The points at which a rollout's sub-step evaluates the network (BatchStepperBase::evaluated_points).
+  std::size_t evaluated_points = 0;
 };
 
 struct RomProgress {

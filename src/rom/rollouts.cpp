@@ -260,6 +260,7 @@ void impl::record_rollouts(BatchStepperBase& stepper, RomResult& result,
   result.steps = stepper.steps();
   result.step_seconds = stepper.step_seconds();
   result.outcomes = stepper.outcomes();
+  result.evaluated_points = stepper.evaluated_points();
 }
 
 namespace {

@@ -4,11 +4,13 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <limits>
 #include <numeric>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -272,6 +274,37 @@ TEST_F(RolloutBatchApi, GalerkinStepKeepsWithinItsReducedDynamicsBound) {
   point.samples = 4;
   point.selection = SampleSelection::Random;
   EXPECT_EQ(prepare_hyper_reduction(model, scene, point, nullptr, {}, {}).stable_time_step, 0.0);
+}
+
+// The points a rollout's sub-step evaluates the network at (RomResult::evaluated_points): Algorithm 1's sources, the
+// samples and their co-moving neighbours; the Galerkin step's samples and the distinct nodes of their quadratic
+// B-spline stencils in the reference configuration (its grid strain), counted here from the stencils' base nodes.
+TEST_F(RolloutBatchApi, EvaluatedPointsAreTheSourcesOrTheSamplesAndTheirStencilNodes) {
+  const Model model = load_model(model_path());
+  const Scene scene = load_scene(scene_path());
+  const std::vector<int> samples = {0, 21, 42, 63};
+  RomSettings galerkin = rom_defaults(RomMethod::Galerkin);
+  galerkin.samples = int(samples.size());
+  RomSettings point;
+  point.samples = int(samples.size());
+  point.weighting = SampleWeighting::Mass;
+  std::set<std::array<int, 3>> nodes;
+  for (const int p : samples) {
+    int base[3];
+    for (int d = 0; d < 3; ++d)
+      base[d] = int(std::floor((model.X[3 * std::size_t(p) + std::size_t(d)] - scene.domain.lo[d]) / scene.dx - 0.5));
+    for (int a = 0; a < 27; ++a) nodes.insert({base[0] + a / 9, base[1] + a / 3 % 3, base[2] + a % 3});
+  }
+  const std::vector<RolloutCase> one = {{{1.0}, "test"}};
+  const HyperReduction on_grid = build_hyper_reduction(model, scene, point, samples);
+  EXPECT_EQ(run_rollouts(model, scene_path(), scene.design.names, one, point, on_grid).evaluated_points,
+            on_grid.source_points.size());
+  EXPECT_GT(on_grid.source_points.size(), samples.size());
+  HyperReduction cubature = build_hyper_reduction(model, scene, galerkin, samples);
+  cubature.stable_time_step = 1e-3;  // the bound's probes are not what this counts
+  EXPECT_EQ(run_rollouts(model, scene_path(), scene.design.names, one, galerkin, cubature).evaluated_points,
+            samples.size() + nodes.size());
+  EXPECT_LT(nodes.size(), 27 * samples.size());  // stencils that share nodes count them once
 }
 
 // Greedy selection on the projection, over the reduced motion and over the training states (one sub-step from each):

@@ -37,6 +37,10 @@ class BatchStepperBase {
   const std::vector<double>& times() const { return times_; }
   long steps() const { return steps_; }
   double step_seconds() const { return step_seconds_; }  // wall time spent in advance_frame
+  // The points at which a sub-step evaluates the network for each rollout: Algorithm 1's sources (the samples and
+  // their neighbours), Algorithm 2's samples and quadrature points, the Galerkin step's samples and the nodes of its
+  // grid strain's stencils. What a step's cost grows with (issue 29's evaluated_points).
+  std::size_t evaluated_points() const { return evaluated_points_; }
   // Advances every running rollout to the next output time (rollouts that have stopped keep their last state);
   // false, doing nothing, when the batch is already at the horizon.
   virtual bool advance_frame() = 0;
@@ -78,6 +82,7 @@ class BatchStepperBase {
   int frame_ = 0;
   long steps_ = 0;
   double step_seconds_ = 0;
+  std::size_t evaluated_points_ = 0;
   std::vector<RolloutOutcome> outcomes_;  // flags, frames_completed, stopped_at and message, kept on the host
   std::function<void(double*, std::size_t)> share_max_;
 };

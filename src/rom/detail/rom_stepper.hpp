@@ -95,6 +95,7 @@ class BatchStepper final : public BatchStepperBase {
       strain_ = upload_grid_strain(grid_strain_nodes(grid_, host_loads.at(0), times_.back(), model.X, model.mass,
                                                      X_samples, apic_, settings.galerkin_node_average),
                                    B, r);
+    evaluated_points_ = std::size_t(point_method_ ? K : S + (galerkin_ ? int(strain_.nodes.extent(0)) : K));
     quadrature_x_ = upload<Matrix>("mpmrom::rom::quadrature_x", h.quadrature_x, h.quadrature_weight.size(), 3);
     quadrature_w_ = upload<Vector>("mpmrom::rom::quadrature_w", h.quadrature_weight, h.quadrature_weight.size());
     nodes_ = upload_indices("mpmrom::rom::nodes", h.nodes);

@@ -78,8 +78,9 @@ void rom_table(std::ostream& md, const json& report) {
   for (const auto& c : report["rom"]) {
     const auto& h = c["hyper_reduction"];
     md << "| " << c["network"].get<std::string>() << " | " << c["configuration"].get<std::string>() << " | "
-       << (h.contains("source_points") && h["source_points"].get<long>() > 0 ? h["source_points"]
-                                                                             : h["quadrature_points"])
+       << (c.contains("evaluated_points")                                      ? c["evaluated_points"]
+           : h.contains("source_points") && h["source_points"].get<long>() > 0 ? h["source_points"]
+                                                                               : h["quadrature_points"])
        << " | " << c["steps"] << " | " << general(1e3 * c["rom_seconds_per_rollout_step"].get<double>()) << " | "
        << general(c["cost_seconds_per_simulated_second"].get<double>()) << " | "
        << percent(number(c["validation"]["position_error"]), "failed") << " |" << metrics_cells(c["test"]) << " "

@@ -251,6 +251,7 @@ void PipelineStudy::evaluate(const Model& model, const NetworkShape& shape, cons
                 {"samples", configuration.samples},
                 {"cfl", configuration.cfl > 0 ? configuration.cfl : runner_.scene().cfl},
                 {"hyper_reduction", reduction.summary()},
+                {"evaluated_points", result.evaluated_points},
                 {"rollouts", cases.size()},
                 {"steps", result.steps},
                 {"rom_seconds_per_rollout_step", result.step_seconds / (double(result.steps) * cases.size())},
