@@ -12,11 +12,16 @@ import subprocess
 import sys
 
 
+METHODS = {"point": "Algorithm 1", "node": "Algorithm 2", "galerkin": "Galerkin step"}
+
+
 def label(record):
-    method = {"point": "Algorithm 1", "node": "Algorithm 2"}.get(record.get("method") or record["settings"]["method"])
+    settings = record.get("settings", {})
+    method = METHODS.get(record.get("method") or settings["method"])
+    samples = record.get("samples", settings.get("samples"))
     who = "PyTorch peer" if "pytorch" in record["benchmark"] else "mpmrom"
     backend = record.get("backend", "")
-    return "%s %s, %s %s, %s" % (who, method, record["device"], backend, record["precision"])
+    return "%s %s (%s samples), %s %s, %s" % (who, method, samples, record["device"], backend, record["precision"])
 
 
 def main():
