@@ -7,6 +7,7 @@
 
 #include "core/timing.hpp"
 #include "mpmrom/rom.hpp"
+#include "rom/detail/snapshots.hpp"
 #include "rom/detail/stable_step.hpp"
 
 namespace mpmrom {
@@ -46,6 +47,16 @@ bool stored_set_applies(const Model& model, const Scene& scene, const RomSetting
          same_projection_step(settings, stored_set_settings(), scene);
 }
 
+// What the offline fits fit, for the log line before them (at 10^6 points they take minutes).
+std::string fitted_snapshots(const RomSettings& settings, const TrainingData* data) {
+  if (data != nullptr && settings.snapshot_source == SnapshotSource::Full) return "the full-order training runs";
+  const std::string runs = "up to " + std::to_string(settings.cubature_runs) + " training runs";
+  if (settings.snapshot_source == SnapshotSource::States)
+    return "one all-point sub-step from each training state, " + runs + " x " +
+           std::to_string(settings.cubature_frames) + " frames";
+  return "the all-point reduced model rolled out over " + runs;
+}
+
 // The samples and (where the selection fits them) weights of the selections that choose both together.
 CubatureFit joint_selection(const Model& model, const Scene& scene, const RomSettings& settings,
                             const TrainingData* data, const std::function<void(const std::string&)>& log,
@@ -80,6 +91,8 @@ CubatureFit joint_selection(const Model& model, const Scene& scene, const RomSet
         " (the samples' projection of the velocity increments against every point's; masses" +
         (fit ? ", then fitted weights)" : ")"));
   } else if (settings.selection == SampleSelection::Cubature) {
+    say("cubature: choosing " + std::to_string(settings.samples) + " samples and their weights, fitted to " +
+        fitted_snapshots(settings, data) + "...");
     selected = cubature_selection(model, cubature_snapshots(scene, settings, data), std::size_t(settings.samples));
   }
   return selected;
@@ -97,6 +110,8 @@ HyperReduction fitted_reduction(const Model& model, const Scene& scene, const Ro
     reduction.weights = selected.weights;  // the greedy projection fitted them to its own error
     return reduction;
   }
+  if (log && selected.samples.empty())
+    log("cubature weights: fitting the samples' weights to " + fitted_snapshots(settings, data) + "...");
   const CubatureFit fit =
       selected.samples.empty() ? cubature_weights(model, cubature_snapshots(scene, settings, data), samples) : selected;
   reduction.weights = fit.weights;
@@ -127,6 +142,10 @@ HyperReduction prepare_hyper_reduction(const Model& model, const Scene& scene, c
   if (settings.method != RomMethod::Galerkin) return reduction;
   // Symplectic Euler is stable below 2 / omega; half of it leaves room for states between the training states.
   const auto bound_start = SteadyClock::now();
+  if (log)
+    log("reduced dynamics: probing its highest frequency at up to " + std::to_string(impl::max_state_frames) +
+        " frames of up to " + std::to_string(impl::stable_step_runs) + " training runs, " +
+        std::to_string(2 * model.latent_dim + 1) + " sub-steps each...");
   const double omega = impl::reduced_highest_frequency(model, scene, settings, reduction);
   if (omega > 0) reduction.stable_time_step = 1 / omega;
   if (log) {

@@ -47,7 +47,7 @@ double impl::reduced_highest_frequency(const Model& model, const Scene& scene, c
     wf[s] = reduction.force_weights.empty() ? w[s] : reduction.force_weights[s];
   }
   std::vector<int> indices;
-  const auto cases = trained_cases(model, scene, 8, indices);
+  const auto cases = trained_cases(model, scene, stable_step_runs, indices);
   RomSettings probing = settings;
   probing.end_time = 0;  // the training runs' horizon
   const auto stepper = create_stepper(model, scene.source_path, scene.design.names, cases, probing, reduction);
