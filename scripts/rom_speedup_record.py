@@ -21,10 +21,12 @@ if rollout["scene"] != fom["scene"]:
 reduction = rollout["hyper_reduction"]
 fom_per_second = fom["fom_step_seconds"] / fom["dt_s"]
 rom_per_second = rollout["rom_seconds_per_simulated_second"]
+# records before the stepper counted them: Algorithm 1's sources, else the samples alone
+evaluated = reduction.get("evaluated_points") or reduction["source_points"] or reduction["samples"]
 record = {
     "scene": rollout["scene"], "method": rollout["settings"]["method"], "device": rollout["device"],
     "backend": rollout["backend"], "precision": rollout["precision"], "particles": rollout["particles"],
-    "samples": reduction["samples"], "evaluated_points": reduction.get("evaluated_points") or reduction["source_points"] or reduction["samples"],
+    "samples": reduction["samples"], "evaluated_points": evaluated,
     "rom_seconds_per_simulated_second": rom_per_second, "fom_seconds_per_simulated_second": fom_per_second,
     "speedup_per_simulated_second": fom_per_second / rom_per_second,
     "position_error": errors["position_error"], "velocity_error": errors["velocity_error"],
