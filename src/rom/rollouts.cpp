@@ -31,6 +31,17 @@ using MemorySpace = Kokkos::DefaultExecutionSpace::memory_space;
 using Vector = impl::DeviceVector;
 using impl::upload;
 
+// The network padded for one thread a point (nn::RegisterMlp), on the device.
+Kokkos::View<const nn::WeightQuad<real_t>*, MemorySpace> upload_quads(const nn::MlpLayout& layout,
+                                                                      const std::vector<double>& weights) {
+  const std::vector<real_t> padded = nn::arrange_for_registers<real_t>(layout, weights);
+  Kokkos::View<nn::WeightQuad<real_t>*, MemorySpace> quads("mpmrom::rom::register_params", padded.size() / 4);
+  const auto host = Kokkos::create_mirror_view(quads);
+  for (std::size_t i = 0; i < padded.size(); ++i) host(i / 4).v[i % 4] = padded[i];
+  Kokkos::deep_copy(quads, host);
+  return quads;
+}
+
 // The scene's material points must be the model's reference points: a model trained on another scene (or another
 // resolution) cannot be rolled out on this one.
 void check_model_fits_scene(const Model& model, const Scene& scene, const ParticleSamples& samples) {
@@ -212,11 +223,13 @@ std::unique_ptr<impl::BatchStepperBase> impl::create_stepper(const Model& model,
   team.standardization = impl::device_mlp(model, params).standardization;
   const std::vector<double> arranged = nn::arrange_for_teams<double>(team.layout, team.arranged, model.weights);
   team.values = upload<Vector>("mpmrom::rom::team_params", arranged, arranged.size());
+  nn::RegisterMlp<real_t, MemorySpace> narrow{team.layout.num_layers, team.layout.latent_dim, team.standardization, {}};
+  if (nn::RegisterMlp<real_t, MemorySpace>::fits(team.layout)) narrow.quads = upload_quads(team.layout, model.weights);
   std::unique_ptr<impl::BatchStepperBase> stepper;
   nn::dispatch_max_width(model.layout().widest, [&](auto width) {
     using Manifold = rom::MlpManifold<decltype(width)::value, MemorySpace>;
     stepper = std::make_unique<impl::BatchStepper<Manifold>>(
-        Manifold{impl::device_mlp(model, params), team}, model.latent_dim,
+        Manifold{impl::device_mlp(model, params), team, narrow}, model.latent_dim,
         impl::ReferencePoints{model.X, model.mass, model.volume}, first, loads, xhat0, xhatdot0, settings,
         max_latent_speed, reduction);
   });

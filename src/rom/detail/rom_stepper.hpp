@@ -142,6 +142,7 @@ class BatchStepper final : public BatchStepperBase {
         team_launch<ExecutionSpace>(manifold_, long(B) * long(strain_.nodes.extent(0)), true, Samples::scratch_for);
     // On GPUs, a batch too small to give each of a quarter of the resident threads a node gathers across lanes;
     // the projection takes its rows across lanes.
+    terms_items_per_team_ = galerkin_terms_items_per_team<Manifold, ExecutionSpace>(r);
     if (!host_space) {
       gather_across_lanes_ = long(B) * I_ * 4 < long(compat::concurrency(ExecutionSpace()));
       projection_lanes_ = 32;
@@ -255,38 +256,32 @@ class BatchStepper final : public BatchStepperBase {
     return times;
   }
 
-  // Every launch takes its functor as a kernel argument: above 512 bytes Kokkos would copy it to the GPU's constant
-  // memory instead, waiting first for the previous such kernel to finish (a host round trip per launch).
-  using LightWeight = Kokkos::Experimental::WorkItemProperty::HintLightWeight_t;
-  using Range = Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>, LightWeight>;
-  using Teams = Kokkos::TeamPolicy<ExecutionSpace, LightWeight>;
-
-  // A team per so many items of a launch (its shape's threads by default), with its lanes and scratch.
-  static Teams teams(const ExecutionSpace& space, long items, const TeamLaunch<Manifold, ExecutionSpace>& launch,
-                     int per_team = 0) {
-    const rom::TeamShape& shape = launch.shape;
-    if (per_team == 0) per_team = shape.threads;
-    return Teams(space, int((items + per_team - 1) / per_team), shape.threads, shape.lanes)
-        .set_scratch_size(0, Kokkos::PerTeam(launch.scratch.bytes(shape)));
-  }
+  using Range = LightRange<ExecutionSpace>;
+  using Teams = LightTeams<ExecutionSpace>;
 
   // Positions (into `positions`) and dg/dxhat of the samples at xhat.
   void sample_kinematics(const ExecutionSpace& space, const Matrix& xhat, const Cube& positions) {
     using Samples = rom::SampleKinematics<Manifold, ExecutionSpace>;
-    Kokkos::parallel_for("mpmrom::rom::sample_kinematics", teams(space, long(B_) * S_, samples_launch_),
-                         Samples{samples_launch_.manifold, samples_X_, xhat, positions, sample_J_,
-                                 samples_launch_.shape, samples_launch_.scratch});
+    const long items = long(B_) * S_;
+    if (one_thread_tangents<ExecutionSpace>(manifold_, items))
+      Kokkos::parallel_for(
+          "mpmrom::rom::sample_kinematics", Range(space, 0, items),
+          rom::ThreadSampleKinematics<Manifold, MemorySpace>{manifold_, samples_X_, xhat, positions, sample_J_});
+    else
+      Kokkos::parallel_for("mpmrom::rom::sample_kinematics", launch_teams(space, items, samples_launch_),
+                           Samples{samples_launch_.manifold, samples_X_, xhat, positions, sample_J_,
+                                   samples_launch_.shape, samples_launch_.scratch});
   }
 
   // The grid strain's nodes: their displacements and dg/dxhat at xhat (GridStrainNodeKinematics).
   void move_strain_nodes(const ExecutionSpace& space) {
     const long items = long(B_) * long(strain_.nodes.extent(0));
-    if constexpr (host_space)
+    if (host_space || one_thread_tangents<ExecutionSpace>(manifold_, items))
       Kokkos::parallel_for("mpmrom::rom::grid_strain_nodes", Range(space, 0, items),
                            rom::GridStrainNodeKinematics<Manifold, MemorySpace>{
                                manifold_, strain_.nodes, xhat_, strain_.u, strain_.dg, counters_.flags});
     else
-      Kokkos::parallel_for("mpmrom::rom::grid_strain_nodes", teams(space, items, nodes_launch_),
+      Kokkos::parallel_for("mpmrom::rom::grid_strain_nodes", launch_teams(space, items, nodes_launch_),
                            rom::TeamGridStrainNodeKinematics<Manifold, ExecutionSpace>{
                                nodes_launch_.manifold, strain_.nodes, xhat_, strain_.u, strain_.dg, nodes_launch_.shape,
                                nodes_launch_.scratch, settings_.galerkin_node_average});
@@ -298,7 +293,7 @@ class BatchStepper final : public BatchStepperBase {
     if (point_method_) {
       using PointSources = rom::MaterialPointSources<Manifold, ExecutionSpace>;
       Kokkos::parallel_for("mpmrom::rom::point_sources",
-                           teams(space, long(B) * K, sources_launch_, sources_launch_.shape.items()),
+                           launch_teams(space, long(B) * K, sources_launch_, sources_launch_.shape.items()),
                            PointSources{sources_launch_.manifold, points_X_, points_mass_, points_volume_, xhat_,
                                         xhatdot_, loads_, material_, t, dt, apic_, sources_, sample_x_, sample_J_,
                                         counters_.flags, sources_launch_.shape, sources_launch_.scratch});
@@ -359,10 +354,13 @@ class BatchStepper final : public BatchStepperBase {
     const auto fastest = Kokkos::Max<real_t, MemorySpace>(fastest_sample_);
     if (strain_on_teams) {
       using TeamTerms = rom::TeamGalerkinSampleTerms<Manifold, ExecutionSpace>;
+      const long items = long(B_) * S_;
+      const int per_team = rom::few_items<ExecutionSpace>(items, space) ? 1 : terms_items_per_team_;
       Kokkos::parallel_reduce(
           "mpmrom::rom::galerkin_terms",
-          Teams(space, B_ * S_, 32).set_scratch_size(0, Kokkos::PerTeam(TeamTerms::scratch_bytes())), TeamTerms{terms},
-          fastest);
+          Teams(space, int((items + per_team - 1) / per_team), per_team == 1 ? 32 : per_team)
+              .set_scratch_size(0, Kokkos::PerTeam(TeamTerms::scratch_bytes(per_team, latent_dim_))),
+          TeamTerms{terms, per_team}, fastest);
     } else {
       Kokkos::parallel_reduce("mpmrom::rom::galerkin_terms", Range(space, 0, long(B_) * S_), terms, fastest);
     }
@@ -475,8 +473,9 @@ class BatchStepper final : public BatchStepperBase {
   TeamLaunch<Manifold, ExecutionSpace> sources_launch_, samples_launch_, nodes_launch_;
   bool gather_across_lanes_ = false;
   int projection_lanes_ = 1;
-  int projection_threads_ = 0;  // GPU teams' threads for the projection; 0: not asked yet
-  real_t max_speed_ = 0;        // fastest sample at the end of the last frame, for the next frame's time step
+  int projection_threads_ = 0;    // GPU teams' threads for the projection; 0: not asked yet
+  int terms_items_per_team_ = 1;  // the Galerkin terms' (rollout, sample) items a GPU team takes in a large batch
+  real_t max_speed_ = 0;          // fastest sample at the end of the last frame, for the next frame's time step
 
   Matrix points_X_, samples_X_, quadrature_x_;
   Vector points_mass_, points_volume_, quadrature_w_, samples_weight_, samples_force_weight_;

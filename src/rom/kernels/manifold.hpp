@@ -18,12 +18,14 @@
 //   KOKKOS_FUNCTION void team_position_and_tangent(const Member&, const real_t* staged, real_t* thread_scratch,
 //        bool active, const real_t X[3], const real_t* xhat, nn::PointKinematics<real_t>& out /* g alone */,
 //        real_t* dgdxhat) const;                     // the same, g and dg/dxhat alone
+//   bool thread_tangent() const;                  // position_and_tangent one thread a point beats the team kernels
 // MlpManifold adapts a trained network; tests plug in analytic maps, which get the team interface from
 // TeamFromSerial. Parallelism contract: value types; kinematics and position_and_gradient within one thread.
 #pragma once
 
 #include <cstddef>
 
+#include "manifold/nn/mlp_registers.hpp"
 #include "manifold/nn/mlp_team.hpp"
 #include "rom/kernels/team_shape.hpp"
 #include "mpmrom/mpmrom_config.hpp"
@@ -44,6 +46,7 @@ struct TeamFromSerial {
     for (int d = 0; d < 3; ++d) g[d] = kin.g[d];
   }
   int team_lanes() const { return 1; }
+  bool thread_tangent() const { return false; }
   TeamScratch team_scratch() const { return TeamScratch{}; }
   std::size_t staged_bytes() const { return 0; }
   Manifold with_staging(bool) const { return static_cast<const Manifold&>(*this); }
@@ -74,8 +77,9 @@ struct TeamFromSerial {
 template <int MaxWidth, class MemorySpace>
 struct MlpManifold {
   nn::Mlp<real_t, MemorySpace> mlp;
-  nn::TeamMlp<real_t, MemorySpace> team;  // the same network arranged for the team kernels
-  bool stage = false;                     // the team kernels copy team.values into scratch first (with_staging)
+  nn::TeamMlp<real_t, MemorySpace> team;        // the same network arranged for the team kernels
+  nn::RegisterMlp<real_t, MemorySpace> narrow;  // and padded for one thread a point (empty: too wide for it)
+  bool stage = false;                           // the team kernels copy team.values into scratch first (with_staging)
   static constexpr bool host_space = Kokkos::SpaceAccessibility<Kokkos::HostSpace, MemorySpace>::accessible;
 
   KOKKOS_INLINE_FUNCTION int latent_dim() const { return mlp.layout.latent_dim; }
@@ -91,13 +95,19 @@ struct MlpManifold {
     nn::SerialMlpForwardJacobian<MaxWidth>(mlp, X, xhat, g, F, unused);
   }
 
-  // One forward pass and three reverse sweeps (4 matrix-vector products a layer), against kinematics' 11.
+  // One forward pass and three reverse sweeps (4 matrix-vector products a layer), against kinematics' 11; a narrow
+  // network's with its activations in registers.
   KOKKOS_INLINE_FUNCTION void position_and_tangent(const real_t X[3], const real_t* xhat, real_t g[3],
                                                    real_t* dgdxhat) const {
+    if (thread_tangent()) {
+      nn::RegisterMlpPositionAndTangent(narrow, X, xhat, g, dgdxhat);
+      return;
+    }
     real_t unused[3][3];
     nn::SerialMlpForwardJacobian<MaxWidth>(mlp, X, xhat, g, unused, dgdxhat);
   }
 
+  KOKKOS_INLINE_FUNCTION bool thread_tangent() const { return narrow.quads.extent(0) > 0; }
   int team_lanes() const { return nn::lanes_for_width(mlp.layout.widest); }
   // What staging copies into each team's scratch, and the same manifold with staging on or off (team_launches.hpp
   // decides per launch).

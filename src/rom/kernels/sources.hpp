@@ -320,4 +320,24 @@ struct SampleKinematics {
   }
 };
 
+// SampleKinematics one thread a (rollout, sample) item, for a manifold whose one-thread position_and_tangent is the
+// faster (Manifold::thread_tangent: a narrow network's, in registers).
+template <class Manifold, class MemorySpace>
+struct ThreadSampleKinematics {
+  Manifold manifold;
+  Kokkos::View<const real_t**, Kokkos::LayoutRight, MemorySpace> X;  // (samples, 3)
+  BatchMatrix<MemorySpace> xhat;
+  BatchVectors<MemorySpace> sample_x;
+  BatchJacobians<MemorySpace> sample_J;
+
+  KOKKOS_INLINE_FUNCTION void operator()(const long e) const {
+    const int num_samples = int(X.extent(0));
+    const int b = int(e / num_samples), s = int(e % num_samples);
+    const real_t Xs[3] = {X(s, 0), X(s, 1), X(s, 2)};
+    real_t g[3];
+    manifold.position_and_tangent(Xs, &xhat(b, 0), g, &sample_J(b, s, 0, 0));
+    for (int d = 0; d < 3; ++d) sample_x(b, s, d) = g[d];
+  }
+};
+
 }  // namespace mpmrom::rom
