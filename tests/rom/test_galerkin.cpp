@@ -110,9 +110,9 @@ class GalerkinForce : public ::testing::Test {
   }
 
   // The kernel's reduced force per unit mass at each sample (S * r), with the grid strain when rows are given;
-  // team_items > 0: then again by TeamGalerkinSampleTerms (so many samples a team) from the samples' kinematics the
-  // first pass left.
-  std::vector<double> reduced_forces(const std::vector<double>& rows, int team_items = 0,
+  // on_teams: then again by TeamGalerkinSampleTerms (a team per sample) from the samples' kinematics the first pass
+  // left.
+  std::vector<double> reduced_forces(const std::vector<double>& rows, bool on_teams = false,
                                      bool node_average = false) const {
     using ExecutionSpace = Kokkos::DefaultExecutionSpace;
     using MemorySpace = ExecutionSpace::memory_space;
@@ -179,13 +179,13 @@ class GalerkinForce : public ::testing::Test {
     terms.node_average = node_average;
     Kokkos::parallel_reduce(Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>>(0, S), terms,
                             Kokkos::Max<real_t>(fastest));
-    if (team_items > 0) {
+    if (on_teams) {
       using TeamTerms = rom::TeamGalerkinSampleTerms<BendingManifold, ExecutionSpace>;
       Kokkos::deep_copy(force, real_t(0));
       terms.kinematics_given = true;
-      Kokkos::parallel_reduce(Kokkos::TeamPolicy<ExecutionSpace>((S + team_items - 1) / team_items, Kokkos::AUTO)
-                                  .set_scratch_size(0, Kokkos::PerTeam(TeamTerms::scratch_bytes(team_items, r))),
-                              TeamTerms{terms, team_items}, Kokkos::Max<real_t>(fastest));
+      Kokkos::parallel_reduce(Kokkos::TeamPolicy<ExecutionSpace>(S, Kokkos::AUTO)
+                                  .set_scratch_size(0, Kokkos::PerTeam(TeamTerms::scratch_bytes())),
+                              TeamTerms{terms}, Kokkos::Max<real_t>(fastest));
     }
     EXPECT_EQ(Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), flags)(0), 0);
     const auto q = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), force);
@@ -236,15 +236,12 @@ TEST_F(GalerkinForce, GridStrainForceIsMinusItsEnergyGradientPlusTheLoads) {
     return grid_elastic_energy(X, volume, rows, grid, xhat, material_double);
   });
   // The team form sums each entry of F and dF/dxhat in the one-thread order: equal up to the contraction of its
-  // multiply-adds, a few eps of the force's terms (O(1) here); a sample a team, or four (the last team two).
-  const std::vector<double> one_thread = reduced_forces(rows);
-  for (const int team_items : {1, 4}) {
-    const std::vector<double> on_teams = reduced_forces(rows, team_items);
-    for (std::size_t e = 0; e < one_thread.size(); ++e)
-      EXPECT_NEAR(on_teams[e], one_thread[e],
-                  16 * std::numeric_limits<real_t>::epsilon() * (1 + std::fabs(one_thread[e])))
-          << "entry " << e << ", " << team_items << " samples a team";
-  }
+  // multiply-adds, a few eps of the force's terms (O(1) here).
+  const std::vector<double> one_thread = reduced_forces(rows), on_teams = reduced_forces(rows, true);
+  for (std::size_t e = 0; e < one_thread.size(); ++e)
+    EXPECT_NEAR(on_teams[e], one_thread[e],
+                16 * std::numeric_limits<real_t>::epsilon() * (1 + std::fabs(one_thread[e])))
+        << "entry " << e;
 }
 
 // With the node average the stress and the loads work against test functions taken elsewhere than where the nodes
@@ -261,7 +258,7 @@ TEST_F(GalerkinForce, NodeAverageWorksAgainstItsTestFunctions) {
     std::copy(row, row + impl::grid_strain_node_values, &test_rows[i * impl::grid_strain_node_values]);
     for (int d = 0; d < 3; ++d) test_rows[i * impl::grid_strain_node_values + d] = row[6 + d];
   }
-  const std::vector<double> q = reduced_forces(rows, 0, true);
+  const std::vector<double> q = reduced_forces(rows, false, true);
   const double h = 1e-5, eps = std::numeric_limits<real_t>::epsilon();
   for (int s = 0; s < S; ++s) {
     const double* strain_rows = &rows[std::size_t(s) * 27 * impl::grid_strain_node_values];

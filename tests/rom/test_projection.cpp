@@ -106,8 +106,10 @@ struct ProjectionPass {
   std::vector<double> xhat, xhatdot, xhat_next;   // (B, r); xhat_next: the evaluated state
   double damping = 0, dt = 0.01;
 
-  // Runs the kernel; returns (xhat_next, xhatdot_next) (B, r) each and the flags.
-  std::pair<std::vector<double>, std::vector<double>> run(bool first_pass, bool positions, int& flags) const {
+  // Runs the kernel (a team per rollout, or one_thread: a thread per rollout, as large GPU batches run it); returns
+  // (xhat_next, xhatdot_next) (B, r) each and the flags.
+  std::pair<std::vector<double>, std::vector<double>> run(bool first_pass, bool positions, int& flags,
+                                                          bool one_thread = false) const {
     using Space = Kokkos::DefaultExecutionSpace;
     using Memory = Space::memory_space;
     const auto upload = [](const std::vector<double>& values, auto view) {
@@ -139,9 +141,12 @@ struct ProjectionPass {
                                             Kokkos::View<real_t*, Memory>("condition", B),
                                             Kokkos::View<int*, Memory>("regularized", B)};
     const int lanes = Kokkos::SpaceAccessibility<Kokkos::HostSpace, Memory>::accessible ? 1 : 32;
-    Kokkos::parallel_for(Kokkos::TeamPolicy<Space>(B, Kokkos::AUTO, lanes)
-                             .set_scratch_size(0, Kokkos::PerTeam(decltype(pass)::scratch_bytes())),
-                         pass);
+    if (one_thread)
+      Kokkos::parallel_for(Kokkos::RangePolicy<Space>(0, B), pass);
+    else
+      Kokkos::parallel_for(Kokkos::TeamPolicy<Space>(B, Kokkos::AUTO, lanes)
+                               .set_scratch_size(0, Kokkos::PerTeam(decltype(pass)::scratch_bytes())),
+                           pass);
     flags = 0;
     for (const double f : download(pass.flags)) flags |= int(f);
     return {download(pass.xhat_next), download(pass.xhatdot_next)};
@@ -150,7 +155,7 @@ struct ProjectionPass {
 
 // Mass-weighted, damped fit and the Gauss-Newton position step against Eigen's solution of the same normal equations:
 // (A + lambda I) y = rhs, A = J^T W J, lambda = damping * trace(A) / r, rhs_rate = J^T W v + lambda xhatdot_n and
-// rhs_step = J^T W (x_n + dt v - x_eval).
+// rhs_step = J^T W (x_n + dt v - x_eval); a team per rollout and a thread per rollout.
 TEST(RomProjection, WeightedDampedFitAndPositionStepMatchEigen) {
   std::mt19937 gen(5);
   std::normal_distribution<double> normal(0, 1);
@@ -171,9 +176,9 @@ TEST(RomProjection, WeightedDampedFitAndPositionStepMatchEigen) {
   fill(p.xhat_next, p.xhat.size());
   for (const double damping : {0.0, 0.3}) {
     p.damping = damping;
-    for (const bool positions : {false, true}) {
+    for (const auto& [positions, one_thread] : {std::pair{false, false}, {true, false}, {false, true}, {true, true}}) {
       int flags = 0;
-      const auto [xhat_next, xhatdot_next] = p.run(!positions, positions, flags);
+      const auto [xhat_next, xhatdot_next] = p.run(!positions, positions, flags, one_thread);
       ASSERT_EQ(flags & rom::fatal_flags, 0);
       for (int b = 0; b < p.B; ++b) {
         Eigen::MatrixXd A = Eigen::MatrixXd::Zero(p.r, p.r);
@@ -198,8 +203,10 @@ TEST(RomProjection, WeightedDampedFitAndPositionStepMatchEigen) {
         const double cond = svd.singularValues()(0) / svd.singularValues()(p.r - 1);
         const double tolerance = 100 * p.r * eps * cond;
         for (int q = 0; q < p.r; ++q) {
-          EXPECT_NEAR(xhatdot_next[b * p.r + q], rate(q), tolerance * (1 + rate.norm())) << damping << positions;
-          EXPECT_NEAR(xhat_next[b * p.r + q], next(q), tolerance * (1 + next.norm())) << damping << positions;
+          EXPECT_NEAR(xhatdot_next[b * p.r + q], rate(q), tolerance * (1 + rate.norm()))
+              << damping << positions << one_thread;
+          EXPECT_NEAR(xhat_next[b * p.r + q], next(q), tolerance * (1 + next.norm()))
+              << damping << positions << one_thread;
         }
       }
     }

@@ -3,9 +3,6 @@
 // the team shape. Private to the rom stage.
 #pragma once
 
-#include <algorithm>
-
-#include "rom/kernels/galerkin.hpp"
 #include "rom/kernels/manifold.hpp"
 #include "rom/kernels/sources.hpp"
 #include "rom/kernels/team_shape.hpp"
@@ -67,14 +64,6 @@ LightTeams<ExecutionSpace> launch_teams(const ExecutionSpace& space, long items,
 template <class ExecutionSpace, class Manifold>
 bool one_thread_tangents(const Manifold& manifold, long items) {
   return manifold.thread_tangent() && !rom::few_items<ExecutionSpace>(items, ExecutionSpace());
-}
-
-// The Galerkin terms' (rollout, sample) items a GPU team takes in a large batch (TeamGalerkinSampleTerms): a thread
-// each, their strain entries within the scratch budget.
-template <class Manifold, class ExecutionSpace>
-int galerkin_terms_items_per_team(int latent_dim) {
-  using TeamTerms = rom::TeamGalerkinSampleTerms<Manifold, ExecutionSpace>;
-  return int(std::min<std::size_t>(64, rom::team_scratch_budget / TeamTerms::scratch_bytes(1, latent_dim)));
 }
 
 }  // namespace mpmrom::impl

@@ -14,8 +14,9 @@
 // The projection (projection.hpp) then solves M(xhat_n+1) xhatdot_n+1 = sum_s w_s m_s J_s(xhat_n+1)^T v_s + dt f,
 // v_s = J_s(xhat_n) xhatdot_n: the momentum carried onto the new tangent space plus the impulse; with the grid
 // transfer v_s is gathered from the stencil's nodes instead (add_transfer). Parallelism: one thread per (rollout,
-// sample), and for the grid strain's nodes first one thread per (rollout, node); on GPUs the grid strain's sums take
-// a team per (rollout, sample) (TeamGalerkinSampleTerms) and the nodes' network a team thread's lanes.
+// sample), and for the grid strain's nodes first one thread per (rollout, node); on GPUs, for batches that leave most
+// of the GPU idle, the grid strain's sums take a team per (rollout, sample) (TeamGalerkinSampleTerms) and the
+// network a team thread's lanes.
 #pragma once
 
 #include "mpm/bspline.hpp"
@@ -275,53 +276,35 @@ struct GalerkinSampleTerms {
 };
 
 // GalerkinSampleTerms with the grid strain on teams (GPUs, where one thread per (rollout, sample) leaves the force's
-// sums to a few threads): a team per items_per_team (rollout, sample) items, its threads first summing the entries
-// of F and dF/dxhat over the 27 stencil nodes (each entry in the one-thread order), then a thread an item the stress
-// and the force. One item a team for small batches (its threads share the item's entries); many once the items fill
-// the GPU, so that no thread waits through another's stress. Needs kinematics_given (SampleKinematics has run); team
-// scratch: scratch_bytes().
+// sums to a few threads): a team per (rollout, sample), its threads summing the entries of F and dF/dxhat over the 27
+// stencil nodes (each entry in the one-thread order), one thread then the stress and the force. Needs
+// kinematics_given (SampleKinematics has run); team scratch: scratch_bytes().
 template <class Manifold, class ExecutionSpace>
 struct TeamGalerkinSampleTerms {
   using member_type = typename Kokkos::TeamPolicy<ExecutionSpace>::member_type;
   GalerkinSampleTerms<Manifold, typename ExecutionSpace::memory_space> terms;
-  int items_per_team = 1;
 
-  KOKKOS_INLINE_FUNCTION static constexpr std::size_t scratch_bytes(int items_per_team, int r) {
-    return std::size_t(items_per_team) * 9 * (r + 1) * sizeof(real_t);
+  KOKKOS_INLINE_FUNCTION static constexpr std::size_t scratch_bytes() {
+    return 9 * (max_latent_dim + 1) * sizeof(real_t);
   }
 
   KOKKOS_INLINE_FUNCTION void operator()(const member_type& member, real_t& max_speed) const {
-    const int num_samples = int(terms.X.extent(0)), r = int(terms.xhat.extent(1)), per_item = 9 * (r + 1);
-    const long first = long(member.league_rank()) * items_per_team;
-    const long left = long(terms.xhat.extent(0)) * num_samples - first;
-    const int items = left < items_per_team ? int(left) : items_per_team;
-    real_t* entries = static_cast<real_t*>(member.team_scratch(0).get_shmem(scratch_bytes(items_per_team, r)));
-    Kokkos::parallel_for(Kokkos::TeamThreadRange(member, items * per_item), [&](const int e) {
-      const long item = first + e / per_item;
-      const int b = int(item / num_samples), s = int(item % num_samples);
-      const real_t Xs[3] = {terms.X(s, 0), terms.X(s, 1), terms.X(s, 2)};
-      entries[e] = terms.grid_strain_entry(b, s, terms.sample_stencil(Xs), e % per_item);
-    });
+    const int num_samples = int(terms.X.extent(0)), r = int(terms.xhat.extent(1));
+    const int b = member.league_rank() / num_samples, s = member.league_rank() % num_samples;
+    const real_t Xs[3] = {terms.X(s, 0), terms.X(s, 1), terms.X(s, 2)};
+    const QuadraticStencil<real_t> stencil = terms.sample_stencil(Xs);
+    real_t* entries = static_cast<real_t*>(member.team_scratch(0).get_shmem(scratch_bytes()));
+    Kokkos::parallel_for(Kokkos::TeamThreadRange(member, 9 * (r + 1)),
+                         [&](const int entry) { entries[entry] = terms.grid_strain_entry(b, s, stencil, entry); });
     member.team_barrier();
-    real_t team_max = 0;
-    Kokkos::parallel_reduce(
-        Kokkos::TeamThreadRange(member, items),
-        [&](const int t, real_t& fastest) {
-          const long item = first + t;
-          const int b = int(item / num_samples), s = int(item % num_samples);
-          if (terms.flags(b) & fatal_flags) return;
-          const real_t Xs[3] = {terms.X(s, 0), terms.X(s, 1), terms.X(s, 2)};
-          nn::PointKinematics<real_t> kin;
-          terms.grid_motion(b, s, Xs, kin);
-          Mat3<real_t> F, dF[max_latent_dim];
-          const real_t* own = entries + t * per_item;
-          for (int entry = 0; entry < per_item; ++entry)
-            (entry < 9 ? F : dF[entry / 9 - 1])(entry % 9 / 3, entry % 3) = own[entry];
-          terms.stress_and_force(b, s, Xs, kin, F, dF, fastest);
-        },
-        Kokkos::Max<real_t>(team_max));
     Kokkos::single(Kokkos::PerTeam(member), [&]() {
-      if (team_max > max_speed) max_speed = team_max;
+      if (terms.flags(b) & fatal_flags) return;  // read once, by the thread that acts on it
+      nn::PointKinematics<real_t> kin;
+      terms.grid_motion(b, s, Xs, kin);
+      Mat3<real_t> F, dF[max_latent_dim];
+      for (int entry = 0; entry < 9 * (r + 1); ++entry)
+        (entry < 9 ? F : dF[entry / 9 - 1])(entry % 9 / 3, entry % 3) = entries[entry];
+      terms.stress_and_force(b, s, Xs, kin, F, dF, max_speed);
     });
   }
 };

@@ -11,13 +11,13 @@
 //
 // Parallelism: one team per rollout; team thread i takes row i of J^T W J and of the right-hand sides, one
 // parallel_reduce over the samples' rows across its vector lanes; one thread then factors and solves the r x r system
-// (core/math/cholesky.hpp). Guard: the condition number is estimated from the Cholesky factor as (max L_ii / min
-// L_ii)^2 (a lower bound of cond_2); above max_condition, or when the factorisation fails, the system is regularised
-// with mu I, mu = regularization * trace / r, and the rollout flagged; if that fails too, or the solution is not
-// finite, the rollout is flagged and its state left as it was, never set to NaN. With regularisation off, an
-// ill-conditioned system stops the rollout instead (flag_ill_posed). A projected latent speed |xhatdot| above
-// max_latent_speed stops it too (flag_energy): the reduced kinetic energy has left every bound the training motion
-// sets.
+// (core/math/cholesky.hpp). Or (a RangePolicy) one thread per rollout for all of it. Guard: the condition number is
+// estimated from the Cholesky factor as (max L_ii / min L_ii)^2 (a lower bound of cond_2); above max_condition, or when
+// the factorisation fails, the system is regularised with mu I, mu = regularization * trace / r, and the rollout
+// flagged; if that fails too, or the solution is not finite, the rollout is flagged and its state left as it was, never
+// set to NaN. With regularisation off, an ill-conditioned system stops the rollout instead (flag_ill_posed). A
+// projected latent speed |xhatdot| above max_latent_speed stops it too (flag_energy): the reduced kinetic energy has
+// left every bound the training motion sets.
 #pragma once
 
 #include "core/math/cholesky.hpp"
@@ -148,6 +148,32 @@ struct ProjectSamples {
     assemble(team, b, shared.data());
     team.team_barrier();
     Kokkos::single(Kokkos::PerTeam(team), [&]() { solve(b, shared.data()); });
+  }
+
+  // One rollout a thread (large GPU batches, where a team of r x 32 per rollout keeps few teams resident for its
+  // registers): the samples' rows summed in order, as a team of one thread of one lane sums them, then solve.
+  KOKKOS_INLINE_FUNCTION void operator()(const int b) const {
+    if (flags(b) & fatal_flags) {
+      hold(b);
+      return;
+    }
+    const int r = latent_dim, rows = 3 * int(sample_J.extent(1));
+    const bool forces = sample_force.extent(0) > 0;
+    real_t sums[lda * lda + 2 * lda] = {};  // solve's layout: J^T W J, then the two right-hand sides
+    for (int row = 0; row < rows; ++row) {
+      const int s = row / 3, k = row % 3;
+      const real_t* Jrow = &sample_J(b, s, k, 0);
+      const real_t v = sample_velocity(b, s, k);
+      const real_t miss = project_positions ? sample_x(b, s, k) + dt * v - evaluated_x(b, s, k) : real_t(0);
+      for (int i = 0; i < r; ++i) {
+        const real_t wJ = weight(s) * Jrow[i];
+        for (int j = 0; j < r; ++j) sums[i * lda + j] += wJ * Jrow[j];
+        sums[lda * lda + i] += wJ * v;
+        if (forces && k == 0) sums[lda * lda + i] += force_weight(s) * dt * sample_force(b, s * r + i);
+        sums[lda * lda + lda + i] += wJ * miss;
+      }
+    }
+    solve(b, sums);
   }
 
   // Public for nvcc: the team lambdas below may not live in private member functions.
