@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "backends.hpp"
+#include "random_network.hpp"
 #include "manifold/nn/mlp.hpp"
 #include "manifold/nn/mlp_kinematics.hpp"
 #include "manifold/nn/mlp_team.hpp"
@@ -21,38 +22,12 @@ namespace {
 using namespace mpmrom;
 using mpmrom::test::BackendName;
 using mpmrom::test::EnabledBackends;
+using mpmrom::test::HostNetwork;
+using mpmrom::test::random_network;
 
 template <class T>
 constexpr double epsilon_of() {
   return std::numeric_limits<T>::epsilon();
-}
-
-// A network with random weights (scaled by 1/sqrt(fan-in), as training starts), non-trivial standardisation, and
-// `num_codes` random latent codes stored after the weights.
-struct HostNetwork {
-  nn::MlpLayout layout;
-  nn::Standardization<double> standardization;
-  std::vector<double> params;  // weights, then codes
-};
-
-HostNetwork random_network(int latent, int width, int depth, int num_codes, unsigned seed) {
-  HostNetwork net;
-  net.layout = nn::MlpLayout::make(latent, width, depth);
-  std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> uniform(-1, 1);
-  for (int l = 0; l < depth; ++l) {
-    const double scale = 1.5 / std::sqrt(double(net.layout.dims[l]));
-    for (int i = 0; i < net.layout.dims[l + 1] * (net.layout.dims[l] + 1); ++i)
-      net.params.push_back(scale * uniform(rng));
-  }
-  for (int i = 0; i < num_codes * latent; ++i) net.params.push_back(uniform(rng));
-  for (int d = 0; d < 3; ++d) {
-    net.standardization.input_mean[d] = 0.1 * uniform(rng);
-    net.standardization.input_scale[d] = 0.2 + 0.05 * d;
-    net.standardization.output_mean[d] = 0.01 * uniform(rng);
-    net.standardization.output_scale[d] = 0.05 + 0.02 * d;
-  }
-  return net;
 }
 
 template <class T, class MemorySpace>

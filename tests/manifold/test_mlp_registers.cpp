@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "backends.hpp"
+#include "random_network.hpp"
 #include "manifold/nn/mlp.hpp"
 #include "manifold/nn/mlp_registers.hpp"
 
@@ -16,36 +17,11 @@ namespace {
 using namespace mpmrom;
 using mpmrom::test::BackendName;
 using mpmrom::test::EnabledBackends;
+using mpmrom::test::HostNetwork;
 
 struct Shape {
   int latent, width, depth;
 };
-
-struct RandomNetwork {
-  nn::MlpLayout layout;
-  nn::Standardization<double> standardization;
-  std::vector<double> params;
-};
-
-// Weights scaled by 1/sqrt(fan-in), as training starts; a standardisation far from the identity.
-RandomNetwork random_network(const Shape& shape, unsigned seed) {
-  RandomNetwork net;
-  net.layout = nn::MlpLayout::make(shape.latent, shape.width, shape.depth);
-  std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> uniform(-1, 1);
-  for (int l = 0; l < shape.depth; ++l) {
-    const double scale = 1.5 / std::sqrt(double(net.layout.dims[l]));
-    for (int i = 0; i < net.layout.dims[l + 1] * (net.layout.dims[l] + 1); ++i)
-      net.params.push_back(scale * uniform(rng));
-  }
-  for (int d = 0; d < 3; ++d) {
-    net.standardization.input_mean[d] = 0.1 * uniform(rng);
-    net.standardization.input_scale[d] = 0.2 + 0.05 * d;
-    net.standardization.output_mean[d] = 0.01 * uniform(rng);
-    net.standardization.output_scale[d] = 0.05 + 0.02 * d;
-  }
-  return net;
-}
 
 template <class T, class MemorySpace>
 struct Evaluate {
@@ -73,7 +49,7 @@ Kokkos::View<const T**, Kokkos::LayoutRight, MemorySpace> device_matrix(const st
 
 // g and dg/dxhat of `items` random points and codes by the register kernel in precision T: (items x 3, items x 3r).
 template <class ExecutionSpace, class T>
-void evaluate_registers(const RandomNetwork& host_net, const std::vector<double>& X, const std::vector<double>& xhat,
+void evaluate_registers(const HostNetwork& host_net, const std::vector<double>& X, const std::vector<double>& xhat,
                         std::vector<double>& g, std::vector<double>& jacobian) {
   using MemorySpace = typename ExecutionSpace::memory_space;
   const nn::MlpLayout& layout = host_net.layout;
@@ -110,7 +86,7 @@ TYPED_TEST(MlpRegisters, MatchTheSerialForwardJacobian) {
   // layers, and one layer of two
   for (const Shape shape :
        {Shape{5, 16, 5}, Shape{3, 10, 3}, Shape{13, 16, 4}, Shape{2, 7, nn::max_layers}, Shape{1, 3, 2}}) {
-    const RandomNetwork host_net = random_network(shape, 7);
+    const HostNetwork host_net = test::random_network(shape.latent, shape.width, shape.depth, 0, 7);
     ASSERT_TRUE((nn::RegisterMlp<double, Kokkos::HostSpace>::fits(host_net.layout)));
     const int r = shape.latent, items = 37;
     std::mt19937_64 rng(3);
