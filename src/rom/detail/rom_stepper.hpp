@@ -144,7 +144,7 @@ class BatchStepper final : public BatchStepperBase {
     // the projection takes its rows across lanes.
     if (!host_space) {
       gather_across_lanes_ = long(B) * I_ * 4 < long(compat::concurrency(ExecutionSpace()));
-      projection_lanes_ = 32;
+      projection_launch_.lanes = 32;
     }
   }
 
@@ -411,27 +411,7 @@ class BatchStepper final : public BatchStepperBase {
                                   sample_force_,
                                   samples_force_weight_,
                                   leapfrog ? dt / 2 : real_t(0)};
-      // A team thread per row of the normal equations on GPUs, as many as the kernel's registers allow (the team's
-      // threads stride over the rows: at r = 16 a team of 16 x 32 exceeded them on an H200); host teams are one
-      // thread (the bound is the kernel's, asked once: the query costs a driver call).
-      const auto scratch = Kokkos::PerTeam(Projection::scratch_bytes());
-      // A batch that fills the GPU: one thread a rollout (10^4 rollouts on an H200: 1.05 ms a launch on teams, whose
-      // registers keep two resident an SM).
-      if (!host_space && !rom::few_items<ExecutionSpace>(B, space)) {
-        Kokkos::parallel_for("mpmrom::rom::project", Kokkos::RangePolicy<ExecutionSpace, LightWeight>(space, 0, B),
-                             projection);
-        return;
-      }
-      if (projection_threads_ == 0)
-        projection_threads_ = host_space ? 1
-                                         : std::min(r, Teams(space, B, 1, projection_lanes_)
-                                                           .set_scratch_size(0, scratch)
-                                                           .team_size_max(projection, Kokkos::ParallelForTag()));
-      Kokkos::parallel_for("mpmrom::rom::project",
-                           (host_space ? Teams(space, B, Kokkos::AUTO, projection_lanes_)
-                                       : Teams(space, B, projection_threads_, projection_lanes_))
-                               .set_scratch_size(0, scratch),
-                           projection);
+      projection_launch_(space, B, r, projection);
     };
     project(true);
     // Re-project with J at the trial next state, so that the new state's own velocity field J(xhat_n+1) xhatdot
@@ -478,9 +458,8 @@ class BatchStepper final : public BatchStepperBase {
   rom::NewtonSettings newton_;
   TeamLaunch<Manifold, ExecutionSpace> sources_launch_, samples_launch_, nodes_launch_;
   bool gather_across_lanes_ = false;
-  int projection_lanes_ = 1;
-  int projection_threads_ = 0;  // GPU teams' threads for the projection; 0: not asked yet
-  real_t max_speed_ = 0;        // fastest sample at the end of the last frame, for the next frame's time step
+  ProjectionLaunch<ExecutionSpace> projection_launch_;
+  real_t max_speed_ = 0;  // fastest sample at the end of the last frame, for the next frame's time step
 
   Matrix points_X_, samples_X_, quadrature_x_;
   Vector points_mass_, points_volume_, quadrature_w_, samples_weight_, samples_force_weight_;

@@ -3,6 +3,8 @@
 // the team shape. Private to the rom stage.
 #pragma once
 
+#include <algorithm>
+
 #include "rom/kernels/manifold.hpp"
 #include "rom/kernels/sources.hpp"
 #include "rom/kernels/team_shape.hpp"
@@ -65,5 +67,38 @@ template <class ExecutionSpace, class Manifold>
 bool one_thread_tangents(const Manifold& manifold, long items) {
   return manifold.thread_tangent() && !rom::few_items<ExecutionSpace>(items, ExecutionSpace());
 }
+
+// How the projection (rom::ProjectSamples) runs: on GPUs a team per rollout, a team thread per row of the normal
+// equations, as many as the kernel's registers allow (the team's threads stride over the rows: at r = 16 a team of
+// 16 x 32 exceeded them on an H200; asked once, the query costs a driver call), or one thread a rollout for a batch
+// that fills the GPU (10^4 rollouts on an H200: 1.05 ms a launch on teams, whose registers keep two resident an SM,
+// 0.27 ms so); host teams are one thread.
+template <class ExecutionSpace>
+struct ProjectionLaunch {
+  static constexpr bool host_space =
+      Kokkos::SpaceAccessibility<Kokkos::HostSpace, typename ExecutionSpace::memory_space>::accessible;
+  int lanes = 1;
+  int threads = 0;  // GPU teams' threads; 0: not asked yet
+
+  template <class Projection>
+  void operator()(const ExecutionSpace& space, int rollouts, int r, const Projection& projection) {
+    if (!host_space && !rom::few_items<ExecutionSpace>(rollouts, space)) {
+      Kokkos::parallel_for("mpmrom::rom::project", Kokkos::RangePolicy<ExecutionSpace, LightWeight>(space, 0, rollouts),
+                           projection);
+      return;
+    }
+    const auto scratch = Kokkos::PerTeam(Projection::scratch_bytes());
+    if (threads == 0)
+      threads = host_space ? 1
+                           : std::min(r, LightTeams<ExecutionSpace>(space, rollouts, 1, lanes)
+                                             .set_scratch_size(0, scratch)
+                                             .team_size_max(projection, Kokkos::ParallelForTag()));
+    Kokkos::parallel_for("mpmrom::rom::project",
+                         (host_space ? LightTeams<ExecutionSpace>(space, rollouts, Kokkos::AUTO, lanes)
+                                     : LightTeams<ExecutionSpace>(space, rollouts, threads, lanes))
+                             .set_scratch_size(0, scratch),
+                         projection);
+  }
+};
 
 }  // namespace mpmrom::impl
