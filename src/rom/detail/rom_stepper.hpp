@@ -262,14 +262,12 @@ class BatchStepper final : public BatchStepperBase {
   void sample_kinematics(const ExecutionSpace& space, const Matrix& xhat, const Cube& positions) {
     using Samples = rom::SampleKinematics<Manifold, ExecutionSpace>;
     const long items = long(B_) * S_;
+    const Samples samples{samples_launch_.manifold, samples_X_, xhat, positions, sample_J_, samples_launch_.shape,
+                          samples_launch_.scratch};
     if (one_thread_tangents<ExecutionSpace>(manifold_, items))
-      Kokkos::parallel_for(
-          "mpmrom::rom::sample_kinematics", Range(space, 0, items),
-          rom::ThreadSampleKinematics<Manifold, MemorySpace>{manifold_, samples_X_, xhat, positions, sample_J_});
+      Kokkos::parallel_for("mpmrom::rom::sample_kinematics", Range(space, 0, items), samples);
     else
-      Kokkos::parallel_for("mpmrom::rom::sample_kinematics", launch_teams(space, items, samples_launch_),
-                           Samples{samples_launch_.manifold, samples_X_, xhat, positions, sample_J_,
-                                   samples_launch_.shape, samples_launch_.scratch});
+      Kokkos::parallel_for("mpmrom::rom::sample_kinematics", launch_teams(space, items, samples_launch_), samples);
   }
 
   // The grid strain's nodes: their displacements and dg/dxhat at xhat (GridStrainNodeKinematics).

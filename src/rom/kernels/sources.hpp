@@ -318,18 +318,9 @@ struct SampleKinematics {
     Kokkos::parallel_for(Kokkos::ThreadVectorRange(member, active ? 3 : 0),
                          [&](const int d) { sample_x(b, s, d) = g[d]; });
   }
-};
 
-// SampleKinematics one thread a (rollout, sample) item, for a manifold whose one-thread position_and_tangent is the
-// faster (Manifold::thread_tangent: a narrow network's, in registers).
-template <class Manifold, class MemorySpace>
-struct ThreadSampleKinematics {
-  Manifold manifold;
-  Kokkos::View<const real_t**, Kokkos::LayoutRight, MemorySpace> X;  // (samples, 3)
-  BatchMatrix<MemorySpace> xhat;
-  BatchVectors<MemorySpace> sample_x;
-  BatchJacobians<MemorySpace> sample_J;
-
+  // One (rollout, sample) item a thread (a RangePolicy), for a manifold whose one-thread position_and_tangent is the
+  // faster (Manifold::thread_tangent: a narrow network's, in registers); shape and scratch are not used.
   KOKKOS_INLINE_FUNCTION void operator()(const long e) const {
     const int num_samples = int(X.extent(0));
     const int b = int(e / num_samples), s = int(e % num_samples);
