@@ -24,15 +24,20 @@ struct SolveOutcome {
 };
 
 SolveOutcome guarded_solve(const Eigen::MatrixXd& A, const Eigen::VectorXd& b, const rom::ProjectionGuard& guard) {
-  const int r = int(A.rows());
-  real_t a[rom::max_latent_dim * rom::max_latent_dim], rhs[rom::max_latent_dim], x[rom::max_latent_dim];
-  for (int i = 0; i < r; ++i) {
-    rhs[i] = real_t(b(i));
-    for (int j = 0; j < r; ++j) a[i * rom::max_latent_dim + j] = real_t(A(i, j));
-  }
-  real_t condition = 0;
-  const int flags = rom::SerialGuardedSolve(a, rhs, r, guard, x, condition);
-  return {std::vector<double>(x, x + r), flags, double(condition)};
+  SolveOutcome out{{}, -1, 0};
+  rom::with_latent_dim(int(A.rows()), [&](auto R) {
+    constexpr int r = decltype(R)::value;
+    real_t a[r][r], rhs[2][r] = {}, x[2][r] = {};
+    for (int i = 0; i < r; ++i) {
+      rhs[0][i] = real_t(b(i));
+      for (int j = 0; j < r; ++j) a[i][j] = real_t(A(i, j));
+    }
+    real_t condition = 0;
+    out.flags = rom::SerialGuardedSolve<r>(a, rhs, guard, x, condition, 1);
+    out.x.assign(x[0], x[0] + r);
+    out.condition = double(condition);
+  });
+  return out;
 }
 
 rom::ProjectionGuard default_guard() {

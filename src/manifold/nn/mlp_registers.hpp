@@ -12,18 +12,8 @@
 #include <cstddef>
 #include <vector>
 
+#include "core/math/unroll.hpp"
 #include "manifold/nn/mlp.hpp"
-
-// Loops over a layer's neurons unroll whole, so that no register array is indexed at run time (ptxas would move it
-// to local memory; nvcc's own heuristics leave the 768 multiply-adds of a reverse layer rolled). The host pass of a
-// CUDA build runs through nvcc's front end, which knows neither spelling there, and GCC takes its own.
-#if defined(__CUDA_ARCH__) || defined(__clang__)
-#define MPMROM_UNROLL_NEURONS _Pragma("unroll")
-#elif defined(__GNUC__) && !defined(__CUDACC__)
-#define MPMROM_UNROLL_NEURONS _Pragma("GCC unroll 16")
-#else
-#define MPMROM_UNROLL_NEURONS
-#endif
 
 namespace mpmrom::nn {
 
@@ -85,7 +75,7 @@ KOKKOS_INLINE_FUNCTION void RegisterMlpPositionAndTangent(const RegisterMlp<T, M
       const WeightQuad<T> bias = layer[W * quads_per_row + q];
       for (int c = 0; c < 4; ++c) a[4 * q + c] = bias.v[c];
     }
-    MPMROM_UNROLL_NEURONS
+    MPMROM_UNROLL
     for (int i = 0; i < W; ++i)
       for (int q = 0; q < quads_per_row; ++q) {
         const WeightQuad<T> w = layer[i * quads_per_row + q];
@@ -117,7 +107,7 @@ KOKKOS_INLINE_FUNCTION void RegisterMlpPositionAndTangent(const RegisterMlp<T, M
         adjoint[k][j] *= slope[l][j];
         below[k][j] = T(0);
       }
-    MPMROM_UNROLL_NEURONS
+    MPMROM_UNROLL
     for (int i = 0; i < W; ++i)
       for (int q = 0; q < quads_per_row; ++q) {
         const WeightQuad<T> w = layer[i * quads_per_row + q];
@@ -133,5 +123,3 @@ KOKKOS_INLINE_FUNCTION void RegisterMlpPositionAndTangent(const RegisterMlp<T, M
 }
 
 }  // namespace mpmrom::nn
-
-#undef MPMROM_UNROLL_NEURONS

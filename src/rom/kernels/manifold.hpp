@@ -24,6 +24,7 @@
 #pragma once
 
 #include <cstddef>
+#include <type_traits>
 
 #include "manifold/nn/mlp_registers.hpp"
 #include "manifold/nn/mlp_team.hpp"
@@ -33,6 +34,16 @@
 namespace mpmrom::rom {
 
 inline constexpr int max_latent_dim = 16;  // the r x r normal equations live in registers
+
+// Calls f(std::integral_constant<int, R>()) with R = r, so that f's local arrays of the latent dimension have a
+// compile-time size and, on GPUs, stay in registers; an r outside [1, max_latent_dim] calls nothing.
+template <int R = 1, class Function>
+KOKKOS_INLINE_FUNCTION void with_latent_dim(const int r, const Function& f) {
+  if (r == R)
+    f(std::integral_constant<int, R>());
+  else if constexpr (R < max_latent_dim)
+    with_latent_dim<R + 1>(r, f);
+}
 
 // The team interface of a manifold that has only the one-thread one: one lane of each team thread evaluates its point.
 template <class Manifold>

@@ -11,7 +11,8 @@
 //
 // Parallelism: one team per rollout; team thread i takes row i of J^T W J and of the right-hand sides, one
 // parallel_reduce over the samples' rows across its vector lanes; one thread then factors and solves the r x r system
-// (core/math/cholesky.hpp). Or (a RangePolicy) one thread per rollout for all of it. Guard: the condition number is
+// in registers (r made a compile-time constant by with_latent_dim; core/math/cholesky.hpp). Or (a RangePolicy) one
+// thread per rollout for all of it. Guard: the condition number is
 // estimated from the Cholesky factor as (max L_ii / min L_ii)^2 (a lower bound of cond_2); above max_condition, or when
 // the factorisation fails, the system is regularised with mu I, mu = regularization * trace / r, and the rollout
 // flagged; if that fails too, or the solution is not finite, the rollout is flagged and its state left as it was, never
@@ -36,44 +37,47 @@ struct ProjectionGuard {
   real_t max_latent_speed = 0;  // 0: no limit
 };
 
-// Solves A x = rhs for the r x r SPD matrix A (row-major, lda = max_latent_dim) and `columns` right-hand sides
-// (rhs and x: columns vectors max_latent_dim apart) with the guard above. Returns the flags raised; condition
-// receives the estimate of the system actually solved. Parallelism contract: one thread.
-
-KOKKOS_INLINE_FUNCTION int SerialGuardedSolve(const real_t* A, const real_t* rhs, int r, const ProjectionGuard& guard,
-                                              real_t* x, real_t& condition, int columns = 1) {
-  // every loop bounded by max_latent_dim at compile time, so that on GPUs the factor stays in registers
-  constexpr int lda = max_latent_dim;
-  real_t L[max_latent_dim * max_latent_dim];
+// Solves A x = rhs for the R x R SPD matrix A and `columns` (1 or 2) right-hand sides with the guard above, all in
+// local arrays of compile-time size (registers on GPUs). Returns the flags raised; condition receives the estimate of
+// the system actually solved. Parallelism contract: one thread.
+template <int R>
+KOKKOS_INLINE_FUNCTION int SerialGuardedSolve(const real_t (&A)[R][R], const real_t (&rhs)[2][R],
+                                              const ProjectionGuard& guard, real_t (&x)[2][R], real_t& condition,
+                                              int columns) {
   real_t trace = 0;
-  for (int i = 0; i < lda; ++i)
-    if (i < r) trace += A[i * lda + i];
+  MPMROM_UNROLL
+  for (int i = 0; i < R; ++i) trace += A[i][i];
   int flags = 0;
   for (int attempt = 0; attempt < 2; ++attempt) {
-    const real_t mu = attempt == 0 ? real_t(0) : guard.regularization * trace / real_t(r);
-    for (int i = 0; i < lda; ++i)
-      for (int j = 0; j <= i; ++j)
-        if (i < r) L[i * lda + j] = A[i * lda + j] + (i == j ? mu : real_t(0));
-    bool ok = dense::SerialCholesky<max_latent_dim>(L, r, lda);
+    const real_t mu = attempt == 0 ? real_t(0) : guard.regularization * trace / real_t(R);
+    real_t L[R][R];
+    MPMROM_UNROLL
+    for (int i = 0; i < R; ++i) {
+      MPMROM_UNROLL
+      for (int j = 0; j < R; ++j) L[i][j] = j <= i ? A[i][j] + (i == j ? mu : real_t(0)) : real_t(0);
+    }
+    bool ok = dense::SerialCholeskyFixed<R>(L);
     if (ok) {
-      real_t lo = L[0], hi = L[0];
-      for (int i = 1; i < lda; ++i)
-        if (i < r) {
-          lo = math::min(lo, L[i * lda + i]);
-          hi = math::max(hi, L[i * lda + i]);
-        }
+      real_t lo = L[0][0], hi = L[0][0];
+      MPMROM_UNROLL
+      for (int i = 1; i < R; ++i) {
+        lo = math::min(lo, L[i][i]);
+        hi = math::max(hi, L[i][i]);
+      }
       condition = (hi / lo) * (hi / lo);
       ok = attempt == 1 || condition <= guard.max_condition;
     }
     if (!ok && !guard.regularize) return flags | flag_ill_conditioned | flag_ill_posed;
     if (ok) {
-      for (int c = 0; c < 2 && c < columns; ++c) {
-        real_t* column = x + c * lda;
-        for (int i = 0; i < lda; ++i)
-          if (i < r) column[i] = rhs[c * lda + i];
-        dense::SerialCholeskySolve<max_latent_dim>(L, r, lda, column);
-        for (int i = 0; i < lda; ++i)
-          if (i < r && !math::isfinite(column[i])) return flags | flag_not_finite;
+      MPMROM_UNROLL
+      for (int c = 0; c < 2; ++c) {
+        if (c >= columns) continue;
+        MPMROM_UNROLL
+        for (int i = 0; i < R; ++i) x[c][i] = rhs[c][i];
+        dense::SerialCholeskySolveFixed<R>(L, x[c]);
+        MPMROM_UNROLL
+        for (int i = 0; i < R; ++i)
+          if (!math::isfinite(x[c][i])) return flags | flag_not_finite;
       }
       return flags;
     }
@@ -157,23 +161,30 @@ struct ProjectSamples {
       hold(b);
       return;
     }
-    const int r = latent_dim, rows = 3 * int(sample_J.extent(1));
+    with_latent_dim(latent_dim, [&](auto R) { this->template sum_and_solve<decltype(R)::value>(b); });
+  }
+
+  template <int R>
+  KOKKOS_INLINE_FUNCTION void sum_and_solve(const int b) const {
+    const int rows = 3 * int(sample_J.extent(1));
     const bool forces = sample_force.extent(0) > 0;
-    real_t sums[lda * lda + 2 * lda] = {};  // solve's layout: J^T W J, then the two right-hand sides
+    real_t A[R][R] = {}, rhs[2][R] = {};  // J^T W J, then the two right-hand sides
     for (int row = 0; row < rows; ++row) {
       const int s = row / 3, k = row % 3;
       const real_t* Jrow = &sample_J(b, s, k, 0);
       const real_t v = sample_velocity(b, s, k);
       const real_t miss = project_positions ? sample_x(b, s, k) + dt * v - evaluated_x(b, s, k) : real_t(0);
-      for (int i = 0; i < r; ++i) {
+      MPMROM_UNROLL
+      for (int i = 0; i < R; ++i) {
         const real_t wJ = weight(s) * Jrow[i];
-        for (int j = 0; j < r; ++j) sums[i * lda + j] += wJ * Jrow[j];
-        sums[lda * lda + i] += wJ * v;
-        if (forces && k == 0) sums[lda * lda + i] += force_weight(s) * dt * sample_force(b, s * r + i);
-        sums[lda * lda + lda + i] += wJ * miss;
+        MPMROM_UNROLL
+        for (int j = 0; j < R; ++j) A[i][j] += wJ * Jrow[j];
+        rhs[0][i] += wJ * v;
+        if (forces && k == 0) rhs[0][i] += force_weight(s) * dt * sample_force(b, s * R + i);
+        rhs[1][i] += wJ * miss;
       }
     }
-    solve(b, sums);
+    solve_fixed<R>(b, A, rhs);
   }
 
   // Public for nvcc: the team lambdas below may not live in private member functions.
@@ -217,22 +228,40 @@ struct ProjectSamples {
     });
   }
 
-  // Tikhonov term, guarded solve, detectors and the new state. One thread.
-  KOKKOS_INLINE_FUNCTION void solve(int b, real_t* shared) const {
-    const int r = latent_dim;
-    real_t* rhs = shared + lda * lda;
+  // The sums assemble left in scratch (J^T W J row-major, lda apart, then the two right-hand sides), solved. One
+  // thread.
+  KOKKOS_INLINE_FUNCTION void solve(int b, const real_t* shared) const {
+    with_latent_dim(latent_dim, [&](auto R) {
+      constexpr int r = decltype(R)::value;
+      real_t A[r][r], rhs[2][r];
+      MPMROM_UNROLL
+      for (int i = 0; i < r; ++i) {
+        MPMROM_UNROLL
+        for (int j = 0; j < r; ++j) A[i][j] = shared[i * lda + j];
+        rhs[0][i] = shared[lda * lda + i];
+        rhs[1][i] = shared[lda * lda + lda + i];
+      }
+      this->template solve_fixed<r>(b, A, rhs);
+    });
+  }
+
+  // Tikhonov term, guarded solve, detectors and the new state, all in registers. One thread.
+  template <int R>
+  KOKKOS_INLINE_FUNCTION void solve_fixed(int b, real_t (&A)[R][R], real_t (&rhs)[2][R]) const {
     if (rate_damping > real_t(0)) {
       real_t trace = 0;
-      for (int i = 0; i < r; ++i) trace += shared[i * lda + i];
-      const real_t lambda = rate_damping * trace / real_t(r);
-      for (int i = 0; i < r; ++i) {
-        shared[i * lda + i] += lambda;
-        rhs[i] += lambda * xhatdot(b, i);
+      MPMROM_UNROLL
+      for (int i = 0; i < R; ++i) trace += A[i][i];
+      const real_t lambda = rate_damping * trace / real_t(R);
+      MPMROM_UNROLL
+      for (int i = 0; i < R; ++i) {
+        A[i][i] += lambda;
+        rhs[0][i] += lambda * xhatdot(b, i);
       }
     }
-    real_t solution[2 * lda];  // the rate, then the position step
+    real_t solution[2][R] = {};  // the rate, then the position step
     real_t condition = 0;
-    const int raised = SerialGuardedSolve(shared, rhs, r, guard, solution, condition, project_positions ? 2 : 1);
+    const int raised = SerialGuardedSolve<R>(A, rhs, guard, solution, condition, project_positions ? 2 : 1);
     if (condition > max_condition(b)) max_condition(b) = condition;
     if (raised & flag_ill_conditioned) ++regularized_steps(b);
     if (raised) flags(b) |= raised;
@@ -242,8 +271,8 @@ struct ProjectSamples {
     }
     if (guard.max_latent_speed > real_t(0)) {
       real_t speed2 = 0;
-      for (int q = 0; q < lda; ++q)
-        if (q < r) speed2 += solution[q] * solution[q];
+      MPMROM_UNROLL
+      for (int q = 0; q < R; ++q) speed2 += solution[0][q] * solution[0][q];
       if (speed2 > guard.max_latent_speed * guard.max_latent_speed) {
         flags(b) |= flag_energy;
         hold(b);
@@ -251,11 +280,11 @@ struct ProjectSamples {
       }
     }
     const real_t step = drift > real_t(0) ? drift : dt;
-    for (int q = 0; q < lda; ++q)  // a compile-time bound keeps the solution in registers
-      if (q < r) {
-        xhatdot_next(b, q) = solution[q];
-        xhat_next(b, q) = project_positions ? xhat_next(b, q) + solution[lda + q] : xhat(b, q) + step * solution[q];
-      }
+    MPMROM_UNROLL
+    for (int q = 0; q < R; ++q) {
+      xhatdot_next(b, q) = solution[0][q];
+      xhat_next(b, q) = project_positions ? xhat_next(b, q) + solution[1][q] : xhat(b, q) + step * solution[0][q];
+    }
   }
 };
 
