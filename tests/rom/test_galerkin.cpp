@@ -295,6 +295,64 @@ TEST_F(GalerkinForce, NodeAverageWorksAgainstItsTestFunctions) {
   }
 }
 
+// The grid strain's nodes and the samples' kinematics in one team launch (TeamNodesAndSamples, small GPU batches)
+// give what their own launches give: teams of up to 4 items (as many threads as the backend gives a team) over 3
+// rollouts of 5 nodes and 6 samples, so that a team holds nodes and samples both and a rollout's items straddle teams.
+// The analytic map runs the same one-thread arithmetic either way: equal to the bit.
+TEST_F(GalerkinForce, NodesAndSamplesInOneLaunchMatchTheirOwnLaunches) {
+  using ExecutionSpace = Kokkos::DefaultExecutionSpace;
+  using MemorySpace = ExecutionSpace::memory_space;
+  using Samples = rom::SampleKinematics<BendingManifold, ExecutionSpace>;
+  const int B = 3, N = 5;
+  Kokkos::View<real_t**, Kokkos::LayoutRight, MemorySpace> Xv("X", S, 3), nodes("nodes", N, 9);
+  rom::BatchMatrix<MemorySpace> xhat("xhat", B, r);
+  Kokkos::View<int*, MemorySpace> flags("flags", B);
+  auto hX = Kokkos::create_mirror_view(Xv);
+  auto hnodes = Kokkos::create_mirror_view(nodes);
+  auto hxhat = Kokkos::create_mirror_view(xhat);
+  for (int s = 0; s < S; ++s)
+    for (int d = 0; d < 3; ++d) hX(s, d) = real_t(X[3 * s + d]);
+  for (int i = 0; i < N; ++i)
+    for (int d = 0; d < 3; ++d) {
+      hnodes(i, d) = hnodes(i, 6 + d) = real_t(0.1 * std::sin(double(3 * i + d)));
+      hnodes(i, 3 + d) = (i + d) % 4 == 0 ? 0 : 1;
+    }
+  for (int b = 0; b < B; ++b)
+    for (int q = 0; q < r; ++q) hxhat(b, q) = real_t(xhat_host[q] * (1 + b));
+  Kokkos::deep_copy(Xv, hX);
+  Kokkos::deep_copy(nodes, hnodes);
+  Kokkos::deep_copy(xhat, hxhat);
+  struct Outputs {
+    rom::BatchVectors<MemorySpace> u{"u", B, N, 3}, x{"x", B, S, 3};
+    rom::BatchJacobians<MemorySpace> dg{"dg", B, N, 3, r}, J{"J", B, S, 3, r};
+  } own, merged;
+  const rom::TeamScratch scratch = Samples::scratch_for(BendingManifold{});
+  const Samples probe{BendingManifold{}, Xv, xhat, own.x, own.J, rom::TeamShape{}, scratch};
+  const int most = Kokkos::TeamPolicy<ExecutionSpace>(1, 1).team_size_max(probe, Kokkos::ParallelForTag());
+  const rom::TeamShape shape{std::min(4, most), 1, 1};
+  Kokkos::parallel_for(Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>>(0, B * N),
+                       rom::GridStrainNodeKinematics<BendingManifold, MemorySpace>{BendingManifold{}, nodes, xhat,
+                                                                                   own.u, own.dg, flags});
+  Kokkos::parallel_for(Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>>(0, B * S),
+                       Samples{BendingManifold{}, Xv, xhat, own.x, own.J, shape, scratch});
+  const rom::TeamNodesAndSamples<BendingManifold, ExecutionSpace> both{
+      {BendingManifold{}, nodes, xhat, merged.u, merged.dg, shape, scratch, false},
+      {BendingManifold{}, Xv, xhat, merged.x, merged.J, shape, scratch}};
+  const int teams = (B * (N + S) + shape.threads - 1) / shape.threads;
+  Kokkos::parallel_for(Kokkos::TeamPolicy<ExecutionSpace>(teams, shape.threads, shape.lanes)
+                           .set_scratch_size(0, Kokkos::PerTeam(scratch.bytes(shape))),
+                       both);
+  const auto same = [](const auto& expected, const auto& computed, const char* what) {
+    const auto e = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), expected);
+    const auto c = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), computed);
+    for (std::size_t i = 0; i < e.size(); ++i) EXPECT_EQ(c.data()[i], e.data()[i]) << what << " entry " << i;
+  };
+  same(own.u, merged.u, "node displacement");
+  same(own.dg, merged.dg, "node dg/dxhat");
+  same(own.x, merged.x, "sample position");
+  same(own.J, merged.J, "sample dg/dxhat");
+}
+
 // On a lattice of equal masses: an interior node's centroid is the node, a node beyond the body's face has its
 // centroid inside, the held layer's nodes are held, and F of a linear map comes out exact at an interior sample.
 TEST(GridStrainStencils, CentroidsHeldNodesAndLinearFieldsOnALattice) {

@@ -19,6 +19,7 @@
 #include "rom/detail/rollout_counters.hpp"
 #include "rom/detail/rollout_driver.hpp"
 #include "rom/detail/grid_strain.hpp"
+#include "rom/detail/network_launches.hpp"
 #include "rom/detail/team_launches.hpp"
 #include "manifold/device_data.hpp"
 #include "rom/kernels/galerkin.hpp"
@@ -138,8 +139,13 @@ class BatchStepper final : public BatchStepperBase {
     using Samples = rom::SampleKinematics<Manifold, ExecutionSpace>;
     sources_launch_ = team_launch<ExecutionSpace>(manifold_, long(B) * K, false, Sources::scratch_for);
     samples_launch_ = team_launch<ExecutionSpace>(manifold_, long(B) * S, true, Samples::scratch_for);
-    nodes_launch_ =
-        team_launch<ExecutionSpace>(manifold_, long(B) * long(strain_.nodes.extent(0)), true, Samples::scratch_for);
+    // On GPUs the grid strain's nodes take the samples' kinematics at the same state into their launch, where teams
+    // run it (rom::TeamNodesAndSamples).
+    const long node_items = long(B) * long(strain_.nodes.extent(0));
+    nodes_with_samples_ = !host_space && strain_.stencils.extent(0) > 0 && !settings.galerkin_node_average &&
+                          !one_thread_tangents<ExecutionSpace>(manifold_, node_items + long(B) * S);
+    nodes_launch_ = team_launch<ExecutionSpace>(manifold_, node_items + (nodes_with_samples_ ? long(B) * S : 0), true,
+                                                Samples::scratch_for);
     // On GPUs, a batch too small to give each of a quarter of the resident threads a node gathers across lanes;
     // the projection takes its rows across lanes.
     if (!host_space) {
@@ -260,28 +266,17 @@ class BatchStepper final : public BatchStepperBase {
 
   // Positions (into `positions`) and dg/dxhat of the samples at xhat.
   void sample_kinematics(const ExecutionSpace& space, const Matrix& xhat, const Cube& positions) {
-    using Samples = rom::SampleKinematics<Manifold, ExecutionSpace>;
-    const long items = long(B_) * S_;
-    const Samples samples{samples_launch_.manifold, samples_X_, xhat, positions, sample_J_, samples_launch_.shape,
-                          samples_launch_.scratch};
-    if (one_thread_tangents<ExecutionSpace>(manifold_, items))
-      Kokkos::parallel_for("mpmrom::rom::sample_kinematics", Range(space, 0, items), samples);
-    else
-      Kokkos::parallel_for("mpmrom::rom::sample_kinematics", launch_teams(space, items, samples_launch_), samples);
+    launch_sample_kinematics(space, manifold_, samples_launch_, samples_X_, xhat, positions, sample_J_);
   }
 
-  // The grid strain's nodes: their displacements and dg/dxhat at xhat (GridStrainNodeKinematics).
+  // The grid strain's nodes at xhat_ and, with nodes_with_samples_, the samples' kinematics at xhat_ in one launch.
   void move_strain_nodes(const ExecutionSpace& space) {
-    const long items = long(B_) * long(strain_.nodes.extent(0));
-    if (host_space || one_thread_tangents<ExecutionSpace>(manifold_, items))
-      Kokkos::parallel_for("mpmrom::rom::grid_strain_nodes", Range(space, 0, items),
-                           rom::GridStrainNodeKinematics<Manifold, MemorySpace>{
-                               manifold_, strain_.nodes, xhat_, strain_.u, strain_.dg, counters_.flags});
-    else
-      Kokkos::parallel_for("mpmrom::rom::grid_strain_nodes", launch_teams(space, items, nodes_launch_),
-                           rom::TeamGridStrainNodeKinematics<Manifold, ExecutionSpace>{
-                               nodes_launch_.manifold, strain_.nodes, xhat_, strain_.u, strain_.dg, nodes_launch_.shape,
-                               nodes_launch_.scratch, settings_.galerkin_node_average});
+    const TeamLaunch<Manifold, ExecutionSpace>& launch = nodes_launch_;
+    const auto samples = rom::SampleKinematics<Manifold, ExecutionSpace>{
+        launch.manifold, samples_X_,    nodes_with_samples_ ? xhat_ : Matrix(), sample_x_, sample_J_,
+        launch.shape,    launch.scratch};
+    launch_strain_nodes(space, manifold_, launch, strain_, xhat_, counters_.flags, settings_.galerkin_node_average,
+                        samples);
   }
 
   // Algorithms 1 and 2 up to the projection: sources, node velocities, the samples' velocities from the grid.
@@ -380,7 +375,7 @@ class BatchStepper final : public BatchStepperBase {
     // one thread per item, its faster one-pass evaluation.
     const bool strain_on_teams = !host_space && strain_.stencils.extent(0) > 0;
     if (galerkin_ && strain_.nodes.extent(0) > 0) move_strain_nodes(space);
-    if (galerkin_ && strain_on_teams) sample_kinematics(space, xhat_, sample_x_);
+    if (galerkin_ && strain_on_teams && !nodes_with_samples_) sample_kinematics(space, xhat_, sample_x_);
     if (galerkin_)
       galerkin_terms(space, leapfrog ? t + dt / 2 : t, dt, strain_on_teams);
     else
@@ -443,6 +438,7 @@ class BatchStepper final : public BatchStepperBase {
   RomSettings settings_;
   int B_, S_, I_;
   bool point_method_, galerkin_, leapfrog_;
+  bool nodes_with_samples_ = false;  // the samples' kinematics in the grid strain nodes' launch
   int K_;
   GridGeometry<real_t> grid_;
   ElasticMaterial<real_t> material_;

@@ -78,9 +78,13 @@ struct TeamGridStrainNodeKinematics {
   bool node_average = false;  // the test functions at the rows' centroids: a second pass of the network
 
   KOKKOS_INLINE_FUNCTION void operator()(const member_type& member) const {
+    item(member, long(member.league_rank()) * shape.threads + member.team_rank());
+  }
+
+  // Item e of the launch on this team thread (an item past the last: the thread joins the team's barriers alone).
+  KOKKOS_INLINE_FUNCTION void item(const member_type& member, const long e) const {
     const int num_nodes = int(nodes.extent(0)), r = int(xhat.extent(1));
-    const long e = long(member.league_rank()) * shape.threads + member.team_rank();
-    const bool active = e < long(xhat.extent(0)) * num_nodes;
+    const bool active = e >= 0 && e < long(xhat.extent(0)) * num_nodes;
     const int b = active ? int(e / num_nodes) : 0, i = active ? int(e % num_nodes) : 0;
     const real_t Xbar[3] = {nodes(i, 0), nodes(i, 1), nodes(i, 2)};
     const real_t* g = team_point_position_and_tangent(manifold, member, shape, scratch, active, Xbar, &xhat(b, 0),
@@ -96,6 +100,26 @@ struct TeamGridStrainNodeKinematics {
     Kokkos::parallel_for(Kokkos::ThreadVectorRange(member, active ? 3 : 0), [&](const int a) {
       for (int k = 0; k < r; ++k) node_dg(b, i, a, k) *= nodes(i, 3 + a);
     });
+  }
+};
+
+// The grid strain's nodes and the samples' positions and dg/dxhat at one latent state in one launch (GPUs, batches
+// that leave most of the GPU idle: one network pass over both sets instead of two launches, each a dependent chain):
+// the team items [0, rollouts * nodes) are nodes, the rest the samples' items. Both parts take the same manifold,
+// shape and scratch; node_average must be off (its second pass would leave the samples' threads out of its barriers).
+template <class Manifold, class ExecutionSpace>
+struct TeamNodesAndSamples {
+  using member_type = typename Kokkos::TeamPolicy<ExecutionSpace>::member_type;
+  TeamGridStrainNodeKinematics<Manifold, ExecutionSpace> nodes;
+  SampleKinematics<Manifold, ExecutionSpace> samples;
+
+  KOKKOS_INLINE_FUNCTION void operator()(const member_type& member) const {
+    const long e = long(member.league_rank()) * nodes.shape.threads + member.team_rank();
+    const long node_items = long(nodes.xhat.extent(0)) * long(nodes.nodes.extent(0));
+    if (e < node_items)
+      nodes.item(member, e);
+    else
+      samples.item(member, e - node_items);
   }
 };
 
@@ -134,15 +158,21 @@ struct GalerkinSampleTerms {
     if (flags(b) & fatal_flags) return;
     const real_t Xs[3] = {X(s, 0), X(s, 1), X(s, 2)};
     nn::PointKinematics<real_t> kin;
-    Mat3<real_t> F, dF[max_latent_dim];
     if (stencils.extent(0) > 0) {
       grid_motion(b, s, Xs, kin);
-      grid_strain(b, s, sample_stencil(Xs), F, dF);
+      const QuadraticStencil<real_t> stencil = sample_stencil(Xs);
+      with_latent_dim(int(xhat.extent(1)), [&](auto R) {
+        constexpr int r = decltype(R)::value;
+        Mat3<real_t> F, dF[r];
+        this->template grid_strain<r>(b, s, stencil, F, dF);
+        this->template stress_and_force<r>(b, s, Xs, kin, F, dF, max_speed);
+      });
     } else {
       manifold.kinematics(Xs, &xhat(b, 0), &xhatdot(b, 0), kin, &sample_J(b, s, 0, 0));
+      Mat3<real_t> F, dF[max_latent_dim];
       continuum_strain(b, Xs, kin, F, dF);
+      stress_and_force<max_latent_dim>(b, s, Xs, kin, F, dF, max_speed);
     }
-    stress_and_force(b, s, Xs, kin, F, dF, max_speed);
   }
 
   KOKKOS_INLINE_FUNCTION QuadraticStencil<real_t> sample_stencil(const real_t Xs[3]) const {
@@ -163,8 +193,11 @@ struct GalerkinSampleTerms {
   }
 
   // From F and dF/dxhat at the sample: its generalised force q_s, the transfer's share, its position and velocity.
+  // N: dF's length, at least r (r itself where it is a compile-time constant, so that dF stays in registers).
+  template <int N>
   KOKKOS_INLINE_FUNCTION void stress_and_force(int b, int s, const real_t Xs[3], const nn::PointKinematics<real_t>& kin,
-                                               const Mat3<real_t>& F, const Mat3<real_t>* dF, real_t& max_speed) const {
+                                               const Mat3<real_t>& F, const Mat3<real_t> (&dF)[N],
+                                               real_t& max_speed) const {
     const int r = int(xhat.extent(1));
     if (!(determinant(F) > real_t(0))) {
       Kokkos::atomic_or(&flags(b), int(flag_inverted));
@@ -175,7 +208,9 @@ struct GalerkinSampleTerms {
     for (int d = 0; d < 3; ++d) body[d] += loads(b).gravity[d];
     const bool through_nodes = node_average && stencils.extent(0) > 0;
     const QuadraticStencil<real_t> stencil = through_nodes ? sample_stencil(Xs) : QuadraticStencil<real_t>{};
-    for (int k = 0; k < r; ++k) {
+    MPMROM_UNROLL
+    for (int k = 0; k < N; ++k) {
+      if (k >= r) continue;
       real_t power = 0;  // P : dF/dxhat_k
       for (int i = 0; i < 3; ++i)
         for (int j = 0; j < 3; ++j) power += P(i, j) * dF[k](i, j);
@@ -209,7 +244,7 @@ struct GalerkinSampleTerms {
 
   // The manifold's own F at the sample and dF/dxhat_k, the kinematics' Fdot along each unit rate.
   KOKKOS_INLINE_FUNCTION void continuum_strain(int b, const real_t Xs[3], const nn::PointKinematics<real_t>& kin,
-                                               Mat3<real_t>& F, Mat3<real_t>* dF) const {
+                                               Mat3<real_t>& F, Mat3<real_t> (&dF)[max_latent_dim]) const {
     const int r = int(xhat.extent(1));
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j) F(i, j) = kin.F[i][j];
@@ -224,20 +259,24 @@ struct GalerkinSampleTerms {
     }
   }
 
-  // MPM's F at the sample from its stencil's node displacements, and its derivative along each latent coordinate.
+  // MPM's F at the sample from its stencil's node displacements, and its derivative along each latent coordinate
+  // (r, a compile-time constant: dF in registers).
+  template <int r>
   KOKKOS_INLINE_FUNCTION void grid_strain(int b, int s, const QuadraticStencil<real_t>& stencil, Mat3<real_t>& F,
-                                          Mat3<real_t>* dF) const {
-    const int r = int(xhat.extent(1));
+                                          Mat3<real_t> (&dF)[r]) const {
     F = Mat3<real_t>::identity();
+    MPMROM_UNROLL
     for (int k = 0; k < r; ++k) dF[k] = Mat3<real_t>::zero();
     for (int n = 0; n < 27; ++n) {
       const Vec3<real_t> grad = stencil.gradient(n / 9, (n / 3) % 3, n % 3);
       const int i = stencils(s, n);
-      for (int a = 0; a < 3; ++a)
-        for (int c = 0; c < 3; ++c) {
-          F(a, c) += node_u(b, i, a) * grad[c];
-          for (int k = 0; k < r; ++k) dF[k](a, c) += node_dg(b, i, a, k) * grad[c];
-        }
+      MPMROM_UNROLL
+      for (int a = 0; a < 3; ++a) MPMROM_UNROLL
+      for (int c = 0; c < 3; ++c) {
+        F(a, c) += node_u(b, i, a) * grad[c];
+        MPMROM_UNROLL
+        for (int k = 0; k < r; ++k) dF[k](a, c) += node_dg(b, i, a, k) * grad[c];
+      }
     }
   }
 
@@ -301,10 +340,14 @@ struct TeamGalerkinSampleTerms {
       if (terms.flags(b) & fatal_flags) return;  // read once, by the thread that acts on it
       nn::PointKinematics<real_t> kin;
       terms.grid_motion(b, s, Xs, kin);
-      Mat3<real_t> F, dF[max_latent_dim];
-      for (int entry = 0; entry < 9 * (r + 1); ++entry)
-        (entry < 9 ? F : dF[entry / 9 - 1])(entry % 9 / 3, entry % 3) = entries[entry];
-      terms.stress_and_force(b, s, Xs, kin, F, dF, max_speed);
+      with_latent_dim(r, [&](auto R) {
+        constexpr int n = decltype(R)::value;
+        Mat3<real_t> F, dF[n];
+        MPMROM_UNROLL
+        for (int entry = 0; entry < 9 * (n + 1); ++entry)
+          (entry < 9 ? F : dF[entry / 9 - 1])(entry % 9 / 3, entry % 3) = entries[entry];
+        terms.template stress_and_force<n>(b, s, Xs, kin, F, dF, max_speed);
+      });
     });
   }
 };

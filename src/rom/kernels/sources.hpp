@@ -307,10 +307,13 @@ struct SampleKinematics {
   }
 
   KOKKOS_INLINE_FUNCTION void operator()(const member_type& member) const {
+    item(member, long(member.league_rank()) * shape.threads + member.team_rank());
+  }
+
+  // Item e of the launch on this team thread (an item past the last: the thread joins the team's barriers alone).
+  KOKKOS_INLINE_FUNCTION void item(const member_type& member, const long e) const {
     const int num_samples = int(X.extent(0));
-    const long total = long(xhat.extent(0)) * num_samples;
-    const long e = long(member.league_rank()) * shape.threads + member.team_rank();
-    const bool active = e < total;
+    const bool active = e >= 0 && e < long(xhat.extent(0)) * num_samples;
     const int b = active ? int(e / num_samples) : 0, s = active ? int(e % num_samples) : 0;
     const real_t Xs[3] = {X(s, 0), X(s, 1), X(s, 2)};
     const real_t* g = team_point_position_and_tangent(manifold, member, shape, scratch, active, Xs, &xhat(b, 0),
