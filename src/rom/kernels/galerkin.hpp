@@ -286,6 +286,8 @@ struct GalerkinSampleTerms {
                                                   int entry) const {
     const int k = entry / 9 - 1, a = entry % 9 / 3, c = entry % 3;
     real_t sum = k < 0 && a == c ? real_t(1) : real_t(0);
+    // Unrolled: the 27 nodes' loads go out together, not one dependent pair of loads after another.
+    MPMROM_UNROLL
     for (int n = 0; n < 27; ++n) {
       const int i = stencils(s, n);
       sum += (k < 0 ? node_u(b, i, a) : node_dg(b, i, a, k)) * stencil.gradient(n / 9, (n / 3) % 3, n % 3)[c];
