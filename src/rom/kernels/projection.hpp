@@ -201,22 +201,17 @@ struct ProjectSamples {
   KOKKOS_INLINE_FUNCTION void assemble(const member_type& team, int b, real_t* shared) const {
     const int r = latent_dim;
     const int rows = 3 * int(sample_J.extent(1));
-    const bool forces = sample_force.extent(0) > 0;
+    // A lane takes rows_a_lane consecutive rows at a time, unrolled, so that their loads go out together (a lane's
+    // rows one after another waited on each row's loads in turn).
+    constexpr int rows_a_lane = 4;
     Kokkos::parallel_for(Kokkos::TeamThreadRange(team, r), [&](const int i) {
       NormalRow sums;
       Kokkos::parallel_reduce(
-          Kokkos::ThreadVectorRange(team, rows),
-          [&](const int row, NormalRow& partial) {
-            const int s = row / 3, k = row % 3;
-            const real_t* Jrow = &sample_J(b, s, k, 0);
-            const real_t wJ = weight(s) * Jrow[i];
-            for (int j = 0; j < max_latent_dim; ++j)
-              if (j < r) partial.v[j] += wJ * Jrow[j];
-            const real_t v = sample_velocity(b, s, k);
-            partial.v[max_latent_dim] += wJ * v;
-            if (forces && k == 0) partial.v[max_latent_dim] += force_weight(s) * dt * sample_force(b, s * r + i);
-            if (project_positions)
-              partial.v[max_latent_dim + 1] += wJ * (sample_x(b, s, k) + dt * v - evaluated_x(b, s, k));
+          Kokkos::ThreadVectorRange(team, (rows + rows_a_lane - 1) / rows_a_lane),
+          [&](const int chunk, NormalRow& partial) {
+            MPMROM_UNROLL
+            for (int j = 0; j < rows_a_lane; ++j)
+              if (chunk * rows_a_lane + j < rows) add_row(b, i, chunk * rows_a_lane + j, partial);
           },
           sums);
       Kokkos::single(Kokkos::PerThread(team), [&]() {
@@ -226,6 +221,20 @@ struct ProjectSamples {
         shared[lda * lda + lda + i] = sums.v[max_latent_dim + 1];
       });
     });
+  }
+
+  // One sample row's share of row i of J^T W J and of the right-hand sides.
+  KOKKOS_INLINE_FUNCTION void add_row(int b, int i, int row, NormalRow& partial) const {
+    const int r = latent_dim, s = row / 3, k = row % 3;
+    const real_t* Jrow = &sample_J(b, s, k, 0);
+    const real_t wJ = weight(s) * Jrow[i];
+    for (int j = 0; j < max_latent_dim; ++j)
+      if (j < r) partial.v[j] += wJ * Jrow[j];
+    const real_t v = sample_velocity(b, s, k);
+    partial.v[max_latent_dim] += wJ * v;
+    if (sample_force.extent(0) > 0 && k == 0)
+      partial.v[max_latent_dim] += force_weight(s) * dt * sample_force(b, s * r + i);
+    if (project_positions) partial.v[max_latent_dim + 1] += wJ * (sample_x(b, s, k) + dt * v - evaluated_x(b, s, k));
   }
 
   // The sums assemble left in scratch (J^T W J row-major, lda apart, then the two right-hand sides), solved. One
