@@ -351,9 +351,8 @@ class BatchStepper final : public BatchStepperBase {
       using TeamTerms = rom::TeamGalerkinSampleTerms<Manifold, ExecutionSpace>;
       Kokkos::parallel_reduce(
           "mpmrom::rom::galerkin_terms",
-          Teams(space, B_ * S_, (9 * (latent_dim_ + 1) + 31) / 32 * 32)  // a thread an entry of F and dF/dxhat
-              .set_scratch_size(0, Kokkos::PerTeam(TeamTerms::scratch_bytes())),
-          TeamTerms{terms}, fastest);
+          Teams(space, B_ * S_, 32).set_scratch_size(0, Kokkos::PerTeam(TeamTerms::scratch_bytes())), TeamTerms{terms},
+          fastest);
     } else {
       Kokkos::parallel_reduce("mpmrom::rom::galerkin_terms", Range(space, 0, long(B_) * S_), terms, fastest);
     }

@@ -123,6 +123,11 @@ struct TeamNodesAndSamples {
   }
 };
 
+// The latent dimensions for which the force's sums take dF/dxhat in registers (with_latent_dim); larger ones keep it
+// in local memory. With every dimension up to 16 so, the kernels took 255 registers and spilled (the r = 16
+// instance's 144 values of dF), and the 100-rollout poke batch's team kernel ran 2.5x slower on an H200.
+inline constexpr int galerkin_register_latent_dim = 8;
+
 template <class Manifold, class MemorySpace>
 struct GalerkinSampleTerms {
   Manifold manifold;
@@ -161,11 +166,11 @@ struct GalerkinSampleTerms {
     if (stencils.extent(0) > 0) {
       grid_motion(b, s, Xs, kin);
       const QuadraticStencil<real_t> stencil = sample_stencil(Xs);
-      with_latent_dim(int(xhat.extent(1)), [&](auto R) {
-        constexpr int r = decltype(R)::value;
-        Mat3<real_t> F, dF[r];
-        this->template grid_strain<r>(b, s, stencil, F, dF);
-        this->template stress_and_force<r>(b, s, Xs, kin, F, dF, max_speed);
+      with_latent_dim<galerkin_register_latent_dim>(int(xhat.extent(1)), [&](auto R) {
+        constexpr int n = decltype(R)::value;
+        Mat3<real_t> F, dF[n];
+        this->template grid_strain<n>(b, s, stencil, F, dF);
+        this->template stress_and_force<n>(b, s, Xs, kin, F, dF, max_speed);
       });
     } else {
       manifold.kinematics(Xs, &xhat(b, 0), &xhatdot(b, 0), kin, &sample_J(b, s, 0, 0));
@@ -193,7 +198,7 @@ struct GalerkinSampleTerms {
   }
 
   // From F and dF/dxhat at the sample: its generalised force q_s, the transfer's share, its position and velocity.
-  // N: dF's length, at least r (r itself where it is a compile-time constant, so that dF stays in registers).
+  // N: dF's length: r itself, a compile-time constant (dF in registers), or max_latent_dim, bounded by r at run time.
   template <int N>
   KOKKOS_INLINE_FUNCTION void stress_and_force(int b, int s, const real_t Xs[3], const nn::PointKinematics<real_t>& kin,
                                                const Mat3<real_t>& F, const Mat3<real_t> (&dF)[N],
@@ -208,9 +213,9 @@ struct GalerkinSampleTerms {
     for (int d = 0; d < 3; ++d) body[d] += loads(b).gravity[d];
     const bool through_nodes = node_average && stencils.extent(0) > 0;
     const QuadraticStencil<real_t> stencil = through_nodes ? sample_stencil(Xs) : QuadraticStencil<real_t>{};
+    const int n = N < max_latent_dim ? N : r;
     MPMROM_UNROLL
-    for (int k = 0; k < N; ++k) {
-      if (k >= r) continue;
+    for (int k = 0; k < n; ++k) {
       real_t power = 0;  // P : dF/dxhat_k
       for (int i = 0; i < 3; ++i)
         for (int j = 0; j < 3; ++j) power += P(i, j) * dF[k](i, j);
@@ -260,10 +265,11 @@ struct GalerkinSampleTerms {
   }
 
   // MPM's F at the sample from its stencil's node displacements, and its derivative along each latent coordinate
-  // (r, a compile-time constant: dF in registers).
-  template <int r>
+  // (N as stress_and_force's).
+  template <int N>
   KOKKOS_INLINE_FUNCTION void grid_strain(int b, int s, const QuadraticStencil<real_t>& stencil, Mat3<real_t>& F,
-                                          Mat3<real_t> (&dF)[r]) const {
+                                          Mat3<real_t> (&dF)[N]) const {
+    const int r = N < max_latent_dim ? N : int(xhat.extent(1));
     F = Mat3<real_t>::identity();
     MPMROM_UNROLL
     for (int k = 0; k < r; ++k) dF[k] = Mat3<real_t>::zero();
@@ -342,13 +348,14 @@ struct TeamGalerkinSampleTerms {
       if (terms.flags(b) & fatal_flags) return;  // read once, by the thread that acts on it
       nn::PointKinematics<real_t> kin;
       terms.grid_motion(b, s, Xs, kin);
-      with_latent_dim(r, [&](auto R) {
-        constexpr int n = decltype(R)::value;
-        Mat3<real_t> F, dF[n];
+      with_latent_dim<galerkin_register_latent_dim>(r, [&](auto R) {
+        constexpr int N = decltype(R)::value;
+        const int n = N < max_latent_dim ? N : r;
+        Mat3<real_t> F, dF[N];
         MPMROM_UNROLL
         for (int entry = 0; entry < 9 * (n + 1); ++entry)
           (entry < 9 ? F : dF[entry / 9 - 1])(entry % 9 / 3, entry % 3) = entries[entry];
-        terms.template stress_and_force<n>(b, s, Xs, kin, F, dF, max_speed);
+        terms.template stress_and_force<N>(b, s, Xs, kin, F, dF, max_speed);
       });
     });
   }

@@ -35,14 +35,19 @@ namespace mpmrom::rom {
 
 inline constexpr int max_latent_dim = 16;  // the r x r normal equations live in registers
 
-// Calls f(std::integral_constant<int, R>()) with R = r, so that f's local arrays of the latent dimension have a
-// compile-time size and, on GPUs, stay in registers; an r outside [1, max_latent_dim] calls nothing.
-template <int R = 1, class Function>
+// Calls f(std::integral_constant<int, R>()) with R = r for r in [1, Max], so that f's local arrays of the latent
+// dimension have a compile-time size and, on GPUs, stay in registers; an r in (Max, max_latent_dim] calls
+// f(std::integral_constant<int, max_latent_dim>()), which f then bounds by r at run time. A GPU kernel takes the
+// registers of its largest instance: a Max below max_latent_dim keeps them within what its launches' occupancy needs.
+template <int Max = max_latent_dim, int R = 1, class Function>
 KOKKOS_INLINE_FUNCTION void with_latent_dim(const int r, const Function& f) {
-  if (r == R)
+  if constexpr (R > Max) {
+    if (r <= max_latent_dim) f(std::integral_constant<int, max_latent_dim>());
+  } else if (r == R) {
     f(std::integral_constant<int, R>());
-  else if constexpr (R < max_latent_dim)
-    with_latent_dim<R + 1>(r, f);
+  } else {
+    with_latent_dim<Max, R + 1>(r, f);
+  }
 }
 
 // The team interface of a manifold that has only the one-thread one: one lane of each team thread evaluates its point.
