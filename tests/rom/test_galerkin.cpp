@@ -295,6 +295,65 @@ TEST_F(GalerkinForce, NodeAverageWorksAgainstItsTestFunctions) {
   }
 }
 
+// The grid strain's entries (F, then dF/dxhat) at X on `grid` from made-up stencil nodes, with r a compile-time
+// constant (row 0: dF in registers) and bounded by r at run time (row 1: dF in local memory, what latent dimensions
+// above galerkin_register_latent_dim take). A free function: CUDA's lambdas may not live in a test's body.
+template <int r>
+std::vector<double> grid_strain_both_ways(const GridGeometry<real_t>& grid, const real_t X0, const real_t X1,
+                                          const real_t X2) {
+  using ExecutionSpace = Kokkos::DefaultExecutionSpace;
+  using MemorySpace = ExecutionSpace::memory_space;
+  constexpr int num_nodes = 27, entries = 9 * (r + 1);
+  const Kokkos::View<int**, Kokkos::LayoutRight, MemorySpace> stencils("stencils", 1, 27);
+  const rom::BatchVectors<MemorySpace> node_u("node_u", 1, num_nodes, 3);
+  const rom::BatchJacobians<MemorySpace> node_dg("node_dg", 1, num_nodes, 3, r);
+  rom::GalerkinSampleTerms<BendingManifold, MemorySpace> terms{};
+  terms.xhat = rom::BatchMatrix<MemorySpace>("xhat", 1, r);
+  terms.stencils = stencils;
+  terms.node_u = node_u;
+  terms.node_dg = node_dg;
+  terms.grid = grid;
+  Kokkos::parallel_for(
+      Kokkos::RangePolicy<ExecutionSpace>(0, num_nodes), KOKKOS_LAMBDA(const int i) {
+        stencils(0, i) = num_nodes - 1 - i;  // any order of the stencil's nodes
+        for (int a = 0; a < 3; ++a) {
+          node_u(0, i, a) = real_t(0.01) * real_t((7 * i + a) % 11 - 5);
+          for (int k = 0; k < r; ++k) node_dg(0, i, a, k) = real_t(0.1) * real_t((3 * i + 5 * a + k) % 7 - 3);
+        }
+      });
+  Kokkos::View<real_t**, MemorySpace> sums("sums", 2, entries);
+  Kokkos::parallel_for(
+      Kokkos::RangePolicy<ExecutionSpace>(0, 1), KOKKOS_LAMBDA(const int) {
+        const real_t Xs[3] = {X0, X1, X2};
+        const QuadraticStencil<real_t> stencil = terms.sample_stencil(Xs);
+        Mat3<real_t> F, dF[r], F_any, dF_any[rom::max_latent_dim];
+        terms.template grid_strain<r>(0, 0, stencil, F, dF);
+        terms.template grid_strain<rom::max_latent_dim>(0, 0, stencil, F_any, dF_any);
+        for (int e = 0; e < entries; ++e) {
+          sums(0, e) = (e < 9 ? F : dF[e / 9 - 1])(e % 9 / 3, e % 3);
+          sums(1, e) = (e < 9 ? F_any : dF_any[e / 9 - 1])(e % 9 / 3, e % 3);
+        }
+      });
+  const auto host = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), sums);
+  std::vector<double> out;
+  for (int row = 0; row < 2; ++row)
+    for (int e = 0; e < entries; ++e) out.push_back(double(host(row, e)));
+  return out;
+}
+
+// Both forms of the grid strain's sums run the same sums in the same order: equal to the bit. And with_latent_dim
+// hands each r its own instance up to its bound, the runtime-bounded one above it.
+TEST_F(GalerkinForce, GridStrainSumsAreTheSameWithACompileTimeOrARunTimeLatentDimension) {
+  const std::vector<double> sums = grid_strain_both_ways<r>(grid, real_t(X[0]), real_t(X[1]), real_t(X[2]));
+  const std::size_t entries = sums.size() / 2;
+  for (std::size_t e = 0; e < entries; ++e) EXPECT_EQ(sums[entries + e], sums[e]) << "entry " << e;
+  for (int latent = 1; latent <= rom::max_latent_dim; ++latent) {
+    int given = 0;
+    rom::with_latent_dim<rom::galerkin_register_latent_dim>(latent, [&](auto R) { given = decltype(R)::value; });
+    EXPECT_EQ(given, latent <= rom::galerkin_register_latent_dim ? latent : rom::max_latent_dim) << latent;
+  }
+}
+
 // The grid strain's nodes and the samples' kinematics in one team launch (TeamNodesAndSamples, small GPU batches)
 // give what their own launches give: teams of up to 4 items (as many threads as the backend gives a team) over 3
 // rollouts of 5 nodes and 6 samples, so that a team holds nodes and samples both and a rollout's items straddle teams.
