@@ -277,11 +277,13 @@ struct GalerkinSampleTerms {
       const Vec3<real_t> grad = stencil.gradient(n / 9, (n / 3) % 3, n % 3);
       const int i = stencils(s, n);
       MPMROM_UNROLL
-      for (int a = 0; a < 3; ++a) MPMROM_UNROLL
-      for (int c = 0; c < 3; ++c) {
-        F(a, c) += node_u(b, i, a) * grad[c];
+      for (int a = 0; a < 3; ++a) {
         MPMROM_UNROLL
-        for (int k = 0; k < r; ++k) dF[k](a, c) += node_dg(b, i, a, k) * grad[c];
+        for (int c = 0; c < 3; ++c) {
+          F(a, c) += node_u(b, i, a) * grad[c];
+          MPMROM_UNROLL
+          for (int k = 0; k < r; ++k) dF[k](a, c) += node_dg(b, i, a, k) * grad[c];
+        }
       }
     }
   }
