@@ -26,7 +26,9 @@ RolloutBatch::RolloutBatch(std::shared_ptr<const Model> model, const std::string
     : model_(std::move(model)),
       names_(names),
       cases_(cases),
-      stepper_(impl::create_stepper(*model_, scene_path, names, cases, settings, reduction)) {}
+      stepper_(impl::create_stepper(*model_, scene_path, names, cases, settings, reduction)) {
+  stepper_->warm_up();
+}
 
 RolloutBatch::~RolloutBatch() = default;
 RolloutBatch::RolloutBatch(RolloutBatch&&) noexcept = default;

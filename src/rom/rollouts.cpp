@@ -289,6 +289,7 @@ RomResult run_share(const parallel::Communicator& comm, const Model& model, cons
   result.cases = cases;
   result.latent_dim = model.latent_dim;
   const auto stepper = impl::create_stepper(model, scene_path, names, cases, settings, reduction);
+  stepper->warm_up();
   result.setup_seconds = comm.max(seconds_since(start));
   impl::record_rollouts(*stepper, result, comm.is_root() ? progress : std::function<void(const RomProgress&)>(),
                         checkpoint,

@@ -48,6 +48,9 @@ class BatchStepperBase {
   // count and the outcomes as they were: the offline fits' snapshots of one step from given states (rom/cubature.cpp).
   // Returns the sub-step's time step (0: none, at the horizon).
   virtual double probe_substep() = 0;
+  // One sub-step from the current state and back to it, the batch's state unchanged: the step's kernels take their
+  // first launches here, in the set-up, rather than in the first frame's step time (a rollout's set-up calls it).
+  virtual void warm_up() = 0;
   // The latent state and its rate now, (rollouts, r) row-major each.
   virtual void latent(std::vector<double>& xhat, std::vector<double>& xhatdot) const = 0;
   // The same for one rollout (r values each): copies that rollout's row only.
