@@ -19,6 +19,11 @@ struct QuadraticStencil {
   KOKKOS_INLINE_FUNCTION Vec3<T> gradient(int a, int b, int c) const {
     return {{dw[0][a] * w[1][b] * w[2][c], w[0][a] * dw[1][b] * w[2][c], w[0][a] * w[1][b] * dw[2][c]}};
   }
+  // gradient(a, b, c)[axis], the same products, without a vector indexed at run time (which GPU code keeps on the
+  // stack).
+  KOKKOS_INLINE_FUNCTION T gradient_component(int a, int b, int c, int axis) const {
+    return (axis == 0 ? dw[0][a] : w[0][a]) * (axis == 1 ? dw[1][b] : w[1][b]) * (axis == 2 ? dw[2][c] : w[2][c]);
+  }
   // Offset from the point to node base + (a, b, c), in length units; APIC needs it.
   KOKKOS_INLINE_FUNCTION Vec3<T> node_offset(int a, int b, int c, const Vec3<T>& x, const Vec3<T>& origin, T dx) const {
     return {{origin[0] + T(base[0] + a) * dx - x[0], origin[1] + T(base[1] + b) * dx - x[1],

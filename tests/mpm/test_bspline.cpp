@@ -94,6 +94,19 @@ TYPED_TEST(BSpline, UnityCompletenessAndGradients) {
   check_bspline<TypeParam>(1.0, h_cells);
 }
 
+// gradient_component is gradient's entry, the same products in the same order: equal bit for bit.
+TEST(BSplineHost, GradientComponentIsTheGradientsEntry) {
+  const Vec3<real_t> origin{{real_t(-0.3), real_t(0.1), real_t(0.7)}};
+  for (const real_t t : {real_t(0.0), real_t(0.37), real_t(1.91), real_t(-2.45)}) {
+    const auto s = quadratic_stencil(Vec3<real_t>{{t, real_t(0.5) * t + 1, 3 - t}}, origin, real_t(4));
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b)
+        for (int c = 0; c < 3; ++c)
+          for (int axis = 0; axis < 3; ++axis)
+            EXPECT_EQ(s.gradient_component(a, b, c, axis), s.gradient(a, b, c)[axis]) << a << b << c << axis;
+  }
+}
+
 TEST(BSplineHost, KnownValuesAtNodeAndMidpoint) {
   const Vec3<real_t> origin{{0, 0, 0}};
   // At a node the 1D weights are (1/8, 3/4, 1/8); midway between nodes (1/2, 1/2, 0).

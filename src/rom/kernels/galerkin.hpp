@@ -298,7 +298,7 @@ struct GalerkinSampleTerms {
     MPMROM_UNROLL
     for (int n = 0; n < 27; ++n) {
       const int i = stencils(s, n);
-      sum += (k < 0 ? node_u(b, i, a) : node_dg(b, i, a, k)) * stencil.gradient(n / 9, (n / 3) % 3, n % 3)[c];
+      sum += (k < 0 ? node_u(b, i, a) : node_dg(b, i, a, k)) * stencil.gradient_component(n / 9, (n / 3) % 3, n % 3, c);
     }
     return sum;
   }
