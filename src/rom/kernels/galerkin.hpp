@@ -83,22 +83,40 @@ struct TeamGridStrainNodeKinematics {
 
   // Item e of the launch on this team thread (an item past the last: the thread joins the team's barriers alone).
   KOKKOS_INLINE_FUNCTION void item(const member_type& member, const long e) const {
-    const int num_nodes = int(nodes.extent(0)), r = int(xhat.extent(1));
-    const bool active = e >= 0 && e < long(xhat.extent(0)) * num_nodes;
-    const int b = active ? int(e / num_nodes) : 0, i = active ? int(e % num_nodes) : 0;
-    const real_t Xbar[3] = {nodes(i, 0), nodes(i, 1), nodes(i, 2)};
-    const real_t* g = team_point_position_and_tangent(manifold, member, shape, scratch, active, Xbar, &xhat(b, 0),
-                                                      active ? &node_dg(b, i, 0, 0) : nullptr);
-    Kokkos::parallel_for(Kokkos::ThreadVectorRange(member, active ? 3 : 0),
-                         [&](const int a) { node_u(b, i, a) = nodes(i, 3 + a) * (g[a] - Xbar[a]); });
+    const TeamPoint p = point(e);
+    const real_t* g =
+        team_point_position_and_tangent(manifold, member, shape, scratch, p.active, p.X, &xhat(p.b, 0), jacobian(p));
+    write_displacement(member, p, g);
     if (node_average) {  // the whole team or none: the network's passes hold team barriers
       member.team_barrier();
-      const real_t Xtest[3] = {nodes(i, 6), nodes(i, 7), nodes(i, 8)};
-      team_point_position_and_tangent(manifold, member, shape, scratch, active, Xtest, &xhat(b, 0),
-                                      active ? &node_dg(b, i, 0, 0) : nullptr);
+      const real_t Xtest[3] = {nodes(p.i, 6), nodes(p.i, 7), nodes(p.i, 8)};
+      team_point_position_and_tangent(manifold, member, shape, scratch, p.active, Xtest, &xhat(p.b, 0), jacobian(p));
     }
-    Kokkos::parallel_for(Kokkos::ThreadVectorRange(member, active ? 3 : 0), [&](const int a) {
-      for (int k = 0; k < r; ++k) node_dg(b, i, a, k) *= nodes(i, 3 + a);
+    hold_axes(member, p);
+  }
+
+  // item's parts, for a launch that runs the network for other items too (TeamNodesAndSamples).
+  KOKKOS_INLINE_FUNCTION TeamPoint point(const long e) const {
+    const int num_nodes = int(nodes.extent(0));
+    TeamPoint p;
+    p.active = e >= 0 && e < long(xhat.extent(0)) * num_nodes;
+    p.b = p.active ? int(e / num_nodes) : 0;
+    p.i = p.active ? int(e % num_nodes) : 0;
+    for (int d = 0; d < 3; ++d) p.X[d] = nodes(p.i, d);
+    return p;
+  }
+  KOKKOS_INLINE_FUNCTION real_t* jacobian(const TeamPoint& p) const {
+    return p.active ? &node_dg(p.b, p.i, 0, 0) : nullptr;
+  }
+  KOKKOS_INLINE_FUNCTION void write_displacement(const member_type& member, const TeamPoint& p, const real_t* g) const {
+    Kokkos::parallel_for(Kokkos::ThreadVectorRange(member, p.active ? 3 : 0),
+                         [&](const int a) { node_u(p.b, p.i, a) = nodes(p.i, 3 + a) * (g[a] - p.X[a]); });
+  }
+  // dg/dxhat zero on the axes the boundary holds.
+  KOKKOS_INLINE_FUNCTION void hold_axes(const member_type& member, const TeamPoint& p) const {
+    const int r = int(xhat.extent(1));
+    Kokkos::parallel_for(Kokkos::ThreadVectorRange(member, p.active ? 3 : 0), [&](const int a) {
+      for (int k = 0; k < r; ++k) node_dg(p.b, p.i, a, k) *= nodes(p.i, 3 + a);
     });
   }
 };
@@ -116,10 +134,20 @@ struct TeamNodesAndSamples {
   KOKKOS_INLINE_FUNCTION void operator()(const member_type& member) const {
     const long e = long(member.league_rank()) * nodes.shape.threads + member.team_rank();
     const long node_items = long(nodes.xhat.extent(0)) * long(nodes.nodes.extent(0));
-    if (e < node_items)
-      nodes.item(member, e);
-    else
-      samples.item(member, e - node_items);
+    const bool node = e < node_items;
+    const TeamPoint p = node ? nodes.point(e) : samples.point(e - node_items);
+    // One call of the network for both kinds of item, so that every thread meets the same team barriers: where a
+    // team thread has fewer lanes than a warp, one warp holds threads of both kinds, and a barrier its threads reach
+    // at different instructions is undefined (on an H200 the test of this launch, four one-lane threads a team, hung).
+    const real_t* g = team_point_position_and_tangent(nodes.manifold, member, nodes.shape, nodes.scratch, p.active, p.X,
+                                                      node ? &nodes.xhat(p.b, 0) : &samples.xhat(p.b, 0),
+                                                      node ? nodes.jacobian(p) : samples.jacobian(p));
+    if (node) {
+      nodes.write_displacement(member, p, g);
+      nodes.hold_axes(member, p);
+    } else {
+      samples.write_position(member, p, g);
+    }
   }
 };
 

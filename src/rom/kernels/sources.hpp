@@ -267,6 +267,14 @@ struct CheckInversions {
   }
 };
 
+// One item of a team launch as the network sees it: its rollout b, its index i there, its reference position, and
+// whether it is an item at all (threads past the last take part in the team's barriers alone).
+struct TeamPoint {
+  bool active = false;
+  int b = 0, i = 0;
+  real_t X[3] = {0, 0, 0};
+};
+
 // One point's position (returned) and dg/dxhat a team thread, its lanes sharing the network (SampleKinematics'
 // layout: scratch from scratch_for, the position in the thread's last kinematics_values); the team has synchronised
 // on return.
@@ -312,14 +320,28 @@ struct SampleKinematics {
 
   // Item e of the launch on this team thread (an item past the last: the thread joins the team's barriers alone).
   KOKKOS_INLINE_FUNCTION void item(const member_type& member, const long e) const {
+    const TeamPoint p = point(e);
+    const real_t* g =
+        team_point_position_and_tangent(manifold, member, shape, scratch, p.active, p.X, &xhat(p.b, 0), jacobian(p));
+    write_position(member, p, g);
+  }
+
+  // item's parts, for a launch that runs the network for other items too (TeamNodesAndSamples).
+  KOKKOS_INLINE_FUNCTION TeamPoint point(const long e) const {
     const int num_samples = int(X.extent(0));
-    const bool active = e >= 0 && e < long(xhat.extent(0)) * num_samples;
-    const int b = active ? int(e / num_samples) : 0, s = active ? int(e % num_samples) : 0;
-    const real_t Xs[3] = {X(s, 0), X(s, 1), X(s, 2)};
-    const real_t* g = team_point_position_and_tangent(manifold, member, shape, scratch, active, Xs, &xhat(b, 0),
-                                                      active ? &sample_J(b, s, 0, 0) : nullptr);
-    Kokkos::parallel_for(Kokkos::ThreadVectorRange(member, active ? 3 : 0),
-                         [&](const int d) { sample_x(b, s, d) = g[d]; });
+    TeamPoint p;
+    p.active = e >= 0 && e < long(xhat.extent(0)) * num_samples;
+    p.b = p.active ? int(e / num_samples) : 0;
+    p.i = p.active ? int(e % num_samples) : 0;
+    for (int d = 0; d < 3; ++d) p.X[d] = X(p.i, d);
+    return p;
+  }
+  KOKKOS_INLINE_FUNCTION real_t* jacobian(const TeamPoint& p) const {
+    return p.active ? &sample_J(p.b, p.i, 0, 0) : nullptr;
+  }
+  KOKKOS_INLINE_FUNCTION void write_position(const member_type& member, const TeamPoint& p, const real_t* g) const {
+    Kokkos::parallel_for(Kokkos::ThreadVectorRange(member, p.active ? 3 : 0),
+                         [&](const int d) { sample_x(p.b, p.i, d) = g[d]; });
   }
 
   // One (rollout, sample) item a thread (a RangePolicy), for a manifold whose one-thread position_and_tangent is the
