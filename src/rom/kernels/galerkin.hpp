@@ -96,15 +96,7 @@ struct TeamGridStrainNodeKinematics {
   }
 
   // item's parts, for a launch that runs the network for other items too (TeamNodesAndSamples).
-  KOKKOS_INLINE_FUNCTION TeamPoint point(const long e) const {
-    const int num_nodes = int(nodes.extent(0));
-    TeamPoint p;
-    p.active = e >= 0 && e < long(xhat.extent(0)) * num_nodes;
-    p.b = p.active ? int(e / num_nodes) : 0;
-    p.i = p.active ? int(e % num_nodes) : 0;
-    for (int d = 0; d < 3; ++d) p.X[d] = nodes(p.i, d);
-    return p;
-  }
+  KOKKOS_INLINE_FUNCTION TeamPoint point(const long e) const { return team_point(e, long(xhat.extent(0)), nodes); }
   KOKKOS_INLINE_FUNCTION real_t* jacobian(const TeamPoint& p) const {
     return p.active ? &node_dg(p.b, p.i, 0, 0) : nullptr;
   }

@@ -275,6 +275,19 @@ struct TeamPoint {
   real_t X[3] = {0, 0, 0};
 };
 
+// Item e of a launch over rollouts x rows.extent(0) points whose reference positions are the first three columns of
+// rows (the samples' X, the grid strain's node rows).
+template <class Rows>
+KOKKOS_INLINE_FUNCTION TeamPoint team_point(const long e, const long rollouts, const Rows& rows) {
+  const int count = int(rows.extent(0));
+  TeamPoint p;
+  p.active = e >= 0 && e < rollouts * count;
+  p.b = p.active ? int(e / count) : 0;
+  p.i = p.active ? int(e % count) : 0;
+  for (int d = 0; d < 3; ++d) p.X[d] = rows(p.i, d);
+  return p;
+}
+
 // One point's position (returned) and dg/dxhat a team thread, its lanes sharing the network (SampleKinematics'
 // layout: scratch from scratch_for, the position in the thread's last kinematics_values); the team has synchronised
 // on return.
@@ -327,15 +340,7 @@ struct SampleKinematics {
   }
 
   // item's parts, for a launch that runs the network for other items too (TeamNodesAndSamples).
-  KOKKOS_INLINE_FUNCTION TeamPoint point(const long e) const {
-    const int num_samples = int(X.extent(0));
-    TeamPoint p;
-    p.active = e >= 0 && e < long(xhat.extent(0)) * num_samples;
-    p.b = p.active ? int(e / num_samples) : 0;
-    p.i = p.active ? int(e % num_samples) : 0;
-    for (int d = 0; d < 3; ++d) p.X[d] = X(p.i, d);
-    return p;
-  }
+  KOKKOS_INLINE_FUNCTION TeamPoint point(const long e) const { return team_point(e, long(xhat.extent(0)), X); }
   KOKKOS_INLINE_FUNCTION real_t* jacobian(const TeamPoint& p) const {
     return p.active ? &sample_J(p.b, p.i, 0, 0) : nullptr;
   }
