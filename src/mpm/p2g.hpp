@@ -9,6 +9,7 @@
 #pragma once
 
 #include <Kokkos_ScatterView.hpp>
+#include <type_traits>
 
 #include "mpm/bspline.hpp"
 #include "mpm/constitutive.hpp"
@@ -80,8 +81,17 @@ template <class MemorySpace>
 struct AtomicGridAdd {
   GridNodeView<MemorySpace> nodes;
   KOKKOS_INLINE_FUNCTION void operator()(int node, const int*, real_t mass, const Vec3<real_t>& momentum) const {
-    Kokkos::atomic_add(&nodes(node, 0), mass);
-    for (int d = 0; d < 3; ++d) Kokkos::atomic_add(&nodes(node, d + 1), momentum[d]);
+#if defined(__CUDA_ARCH__) && (__CUDA_ARCH__ >= 900)
+    // Compute capability 9.0 adds a float4 in one atomic: a quarter of the L2 atomic operations that bound P2G.
+    // The node's four entries are contiguous and 16-byte aligned (GridNodeView is LayoutRight).
+    if constexpr (std::is_same_v<real_t, float>) {
+      atomicAdd(reinterpret_cast<float4*>(&nodes(node, 0)), make_float4(mass, momentum[0], momentum[1], momentum[2]));
+    } else
+#endif
+    {
+      Kokkos::atomic_add(&nodes(node, 0), mass);
+      for (int d = 0; d < 3; ++d) Kokkos::atomic_add(&nodes(node, d + 1), momentum[d]);
+    }
   }
 };
 
