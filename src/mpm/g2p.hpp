@@ -7,6 +7,7 @@
 // Parallelism: one thread per particle.
 #pragma once
 
+#include "core/light_launch.hpp"
 #include "mpm/bspline.hpp"
 #include "mpm/grid.hpp"
 #include "mpm/particles.hpp"
@@ -25,7 +26,7 @@ void g2p(const ExecutionSpace& space, const ParticleViews<MemorySpace>& particle
   // D_p^{-1} = 4 / dx^2 for quadratic B-splines (Jiang et al. 2015).
   const real_t inverse_inertia = real_t(4) * grid.inv_dx * grid.inv_dx;
   Kokkos::parallel_reduce(
-      "mpmrom::fom::g2p", Kokkos::RangePolicy<ExecutionSpace>(space, 0, particles.size()),
+      "mpmrom::fom::g2p", Kokkos::RangePolicy<ExecutionSpace, LightWeight>(space, 0, particles.size()),
       KOKKOS_LAMBDA(const int p, real_t& speed) {
         const Vec3<real_t> x = load_vec3(particles.x, p);
         const auto s = quadratic_stencil(x, grid.origin, grid.inv_dx);

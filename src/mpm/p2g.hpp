@@ -11,6 +11,7 @@
 #include <Kokkos_ScatterView.hpp>
 #include <type_traits>
 
+#include "core/light_launch.hpp"
 #include "mpm/bspline.hpp"
 #include "mpm/constitutive.hpp"
 #include "mpm/grid.hpp"
@@ -133,7 +134,7 @@ void p2g_atomic(const ExecutionSpace& space, const P2GParticle<MemorySpace>& ker
                 const GridNodeView<MemorySpace>& nodes) {
   const AtomicGridAdd<MemorySpace> add{nodes};
   Kokkos::parallel_for(
-      "mpmrom::fom::p2g_atomic", Kokkos::RangePolicy<ExecutionSpace>(space, 0, kernel.particles.size()),
+      "mpmrom::fom::p2g_atomic", Kokkos::RangePolicy<ExecutionSpace, LightWeight>(space, 0, kernel.particles.size()),
       KOKKOS_LAMBDA(const int p) { kernel(p, add); });
 }
 

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 
+#include "core/light_launch.hpp"
 #include "rom/kernels/manifold.hpp"
 #include "rom/kernels/sources.hpp"
 #include "rom/kernels/team_shape.hpp"
@@ -42,9 +43,7 @@ TeamLaunch<Manifold, ExecutionSpace> team_launch(const Manifold& manifold, long 
   return launch;
 }
 
-// Every launch takes its functor as a kernel argument: above 512 bytes Kokkos would copy it to the GPU's constant
-// memory instead, waiting first for the previous such kernel to finish (a host round trip per launch).
-using LightWeight = Kokkos::Experimental::WorkItemProperty::HintLightWeight_t;
+// Every launch takes its functor as a kernel argument (core/light_launch.hpp).
 template <class ExecutionSpace>
 using LightRange = Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>, LightWeight>;
 template <class ExecutionSpace>
