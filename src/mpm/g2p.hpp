@@ -37,7 +37,7 @@ void g2p(const ExecutionSpace& space, const ParticleViews<MemorySpace>& particle
           for (int b = 0; b < 3; ++b)
             for (int c = 0; c < 3; ++c) {
               const int node = grid.index(s.base[0] + a, s.base[1] + b, s.base[2] + c);
-              const Vec3<real_t> vi = node_velocity(nodes, node);
+              const Vec3<real_t> vi{{nodes(node, 1), nodes(node, 2), nodes(node, 3)}};
               const real_t w = s.weight(a, b, c);
               v += w * vi;
               affine += w * outer(vi, s.node_offset(a, b, c, x, grid.origin, grid.dx));

@@ -2,8 +2,6 @@
 // Parallelism contract: value type, used by one thread at a time.
 #pragma once
 
-#include <type_traits>
-
 #include "core/math/mat3.hpp"
 #include "mpmrom/mpmrom_config.hpp"
 
@@ -36,22 +34,8 @@ struct GridGeometry {
 
 // Grid node fields: column 0 the mass, columns 1-3 the momentum during P2G and the velocity after the grid update.
 // A node's four entries are contiguous on every backend (LayoutRight, not CUDA's default LayoutLeft): P2G adds them
-// with one 16-byte atomic where the GPU has one, and G2P and the grid update read a node in one transaction.
+// with one 16-byte atomic where the GPU has one.
 template <class MemorySpace>
 using GridNodeView = Kokkos::View<real_t* [4], Kokkos::LayoutRight, MemorySpace>;
-
-// Columns 1-3 of node `node`: on GPUs in float one 16-byte load of the whole node instead of three 4-byte ones.
-template <class MemorySpace>
-KOKKOS_INLINE_FUNCTION Vec3<real_t> node_velocity(const GridNodeView<MemorySpace>& nodes, int node) {
-#if defined(__CUDA_ARCH__)
-  if constexpr (std::is_same_v<real_t, float>) {
-    const float4 n = *reinterpret_cast<const float4*>(&nodes(node, 0));
-    return {{n.y, n.z, n.w}};
-  } else
-#endif
-  {
-    return {{nodes(node, 1), nodes(node, 2), nodes(node, 3)}};
-  }
-}
 
 }  // namespace mpmrom
