@@ -1,5 +1,5 @@
 // The pipeline's choices that do not need a trained model: which training runs are held out for validation, the
-// Pareto front of cost against error, network names, and the charts' files.
+// Pareto front of cost against error, network names, the methods' names and the charts' files.
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -8,6 +8,7 @@
 #include "backends.hpp"
 #include "fixtures.hpp"
 #include "studies/charts.hpp"
+#include "studies/detail/format.hpp"
 #include "studies/pipeline.hpp"
 #include "mpmrom/scene.hpp"
 
@@ -47,6 +48,13 @@ TEST(PipelineNames, NetworkShapesParseAndName) {
     EXPECT_THROW(NetworkShape::parse(bad), std::invalid_argument) << bad;
   EXPECT_EQ((RomConfiguration{RomMethod::SampleNode, 0, 3.0}).name(), "node_s0_cfl3");
   EXPECT_EQ(default_search_networks(5).size(), 9u);
+}
+
+// The legends name each method as docs/rom.md does: the Galerkin step is not Algorithm 2.
+TEST(PipelineCharts, MethodsAreNamedInLegends) {
+  EXPECT_EQ(method_title("point"), "Algorithm 1");
+  EXPECT_EQ(method_title("node"), "Algorithm 2");
+  EXPECT_EQ(method_title("galerkin"), "Galerkin step");
 }
 
 TEST(PipelineCharts, ScriptAndImagesAreWritten) {

@@ -31,6 +31,14 @@ inline std::string percent(double fraction, const char* not_finite) {
   return general(100 * fraction, 3) + " %";
 }
 
+// A reduced method's name in a report or a chart's legend, from its command-line name ("point", "node", "galerkin").
+inline std::string method_title(const std::string& method) {
+  if (method == "point") return "Algorithm 1";
+  if (method == "node") return "Algorithm 2";
+  if (method == "galerkin") return "Galerkin step";
+  return method;
+}
+
 // A figure of a report: its number, or infinity where there is none (a failed configuration's null).
 inline double number(const nlohmann::json& value) {
   return value.is_number() ? value.get<double>() : std::numeric_limits<double>::infinity();

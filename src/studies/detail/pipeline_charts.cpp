@@ -41,7 +41,7 @@ Chart error_chart(const json& report, const std::string& metric) {
     cost.push_back(c["cost_seconds_per_simulated_second"]);
     error.push_back(number(c["test_vs_reference"][metric]));
     auto& series = rom_by_method[c["method"].get<std::string>()];
-    series.title = "ROM configurations, " + std::string(c["method"] == "point" ? "Algorithm 1" : "Algorithm 2");
+    series.title = "ROM configurations, " + method_title(c["method"].get<std::string>());
     series.x.push_back(cost.back());
     series.y.push_back(100 * error.back());
   }

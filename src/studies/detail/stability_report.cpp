@@ -110,7 +110,7 @@ void draw_samples_error(const std::string& dir, const std::vector<StabilityCase>
                 false,
                 {}};
   for (const std::string method : {"point", "node"}) {
-    ChartSeries s{method == "point" ? "Algorithm 1" : "Algorithm 2", {}, {}, "linespoints", {}, {}};
+    ChartSeries s{method_title(method), {}, {}, "linespoints", {}, {}};
     for (const auto& c : cases)
       if (c.study == "samples" && c.method == method && c.status != "unstable") {
         s.x.push_back(c.samples > 0 ? c.samples : double(model.num_points()));
