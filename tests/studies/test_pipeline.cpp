@@ -9,6 +9,7 @@
 #include "fixtures.hpp"
 #include "studies/charts.hpp"
 #include "studies/detail/format.hpp"
+#include "studies/detail/pipeline_report.hpp"
 #include "studies/pipeline.hpp"
 #include "mpmrom/scene.hpp"
 
@@ -55,6 +56,65 @@ TEST(PipelineCharts, MethodsAreNamedInLegends) {
   EXPECT_EQ(method_title("point"), "Algorithm 1");
   EXPECT_EQ(method_title("node"), "Algorithm 2");
   EXPECT_EQ(method_title("galerkin"), "Galerkin step");
+}
+
+// A report with the fields report.md reads, and one reduced configuration that held.
+nlohmann::json minimal_report() {
+  const nlohmann::json errors = {{"position_error", 0.002},
+                                 {"displacement_error", 0.02},
+                                 {"velocity_error", 0.05},
+                                 {"F_error", 0.001},
+                                 {"strain_error", 0.01}};
+  const nlohmann::json verdict = {{"front_points_below_fom", 0},
+                                  {"front", nlohmann::json::array()},
+                                  {"metric", "position_error"},
+                                  {"range_seconds_per_simulated_second", {0.1, 0.1}}};
+  nlohmann::json held = {{"network", "r3_w16_d5"},
+                         {"configuration", "galerkin_s8_cfl3"},
+                         {"evaluated_points", 188},
+                         {"hyper_reduction", nlohmann::json::object()},
+                         {"steps", 70},
+                         {"rom_seconds_per_rollout_step", 2e-4},
+                         {"rollouts", 9},
+                         {"cost_seconds_per_simulated_second", 0.056},
+                         {"validation", errors},
+                         {"test", errors},
+                         {"test_vs_reference", errors}};
+  return {{"scene", "poke_cylinder"},
+          {"command", "mpmrom pipeline"},
+          {"device", "cpu"},
+          {"backend", "OpenMP"},
+          {"threads", 2},
+          {"precision", "double"},
+          {"git_commit", "0"},
+          {"wall_seconds", 60.0},
+          {"runs", {{"train", 18}, {"validation", 4}, {"test", 5}}},
+          {"comparison", {{"position_error", verdict}, {"displacement_error", verdict}}},
+          {"reference_refinement", 2.0},
+          {"fom", nlohmann::json::array()},
+          {"rom", {held}},
+          {"models", nlohmann::json::object()}};
+}
+
+// A failed configuration's cells read "failed", and a line below the table says why, as the pipeline printed it.
+TEST(PipelineReport, SaysWhyAConfigurationFailed) {
+  nlohmann::json report = minimal_report();
+  EXPECT_EQ(pipeline_markdown(report, {}).find("Failed configurations"), std::string::npos);
+  nlohmann::json failed = report["rom"][0];
+  failed["configuration"] = "point_s8_cfl0";
+  for (const char* split : {"validation", "test", "test_vs_reference"})
+    for (auto& [key, value] : failed[split].items()) value = nullptr;  // what report.json holds for infinity
+  failed["failed_rollouts"] = 8;
+  failed["failure"] = "stopped at t = 0.22 s: energy blow-up";
+  report["rom"].push_back(failed);
+  const std::string md = pipeline_markdown(report, {});
+  EXPECT_NE(md.find("| r3_w16_d5 | point_s8_cfl0 | 188 | 70 | 0.2 | 0.056 | failed | failed |"), std::string::npos)
+      << md;
+  EXPECT_NE(md.find("- r3_w16_d5 point_s8_cfl0: 8 of 9 rollouts stopped; the first stopped at t = 0.22 s: energy "
+                    "blow-up\n"),
+            std::string::npos)
+      << md;
+  EXPECT_EQ(md.find("- r3_w16_d5 galerkin_s8_cfl3:"), std::string::npos);
 }
 
 TEST(PipelineCharts, ScriptAndImagesAreWritten) {

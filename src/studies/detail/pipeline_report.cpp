@@ -88,6 +88,19 @@ void rom_table(std::ostream& md, const json& report) {
   }
 }
 
+// Why each failed configuration failed: how many of its rollouts stopped, and the first stop's message.
+void failures_list(std::ostream& md, const json& report) {
+  bool first = true;
+  for (const auto& c : report["rom"]) {
+    if (!c.contains("failure")) continue;
+    if (first) md << "\nFailed configurations (no errors; never chosen, never on a front):\n\n";
+    first = false;
+    md << "- " << c["network"].get<std::string>() << " " << c["configuration"].get<std::string>() << ": "
+       << c["failed_rollouts"] << " of " << c["rollouts"] << " rollouts stopped; the first "
+       << c["failure"].get<std::string>() << "\n";
+  }
+}
+
 // One row per trained network.
 void models_table(std::ostream& md, const json& report) {
   md << "\n### Models\n\n| network | parameters | reconstruction position error train / test | training time |\n"
@@ -148,6 +161,7 @@ std::string pipeline_markdown(const json& report, const std::vector<std::string>
   intro(md, report);
   fom_table(md, report);
   rom_table(md, report);
+  failures_list(md, report);
   models_table(md, report);
   md << "\n![training loss](training_loss.png)\n\n";
   targets_table(md, report);
