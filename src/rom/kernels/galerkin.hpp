@@ -84,13 +84,14 @@ struct TeamGridStrainNodeKinematics {
   // Item e of the launch on this team thread (an item past the last: the thread joins the team's barriers alone).
   KOKKOS_INLINE_FUNCTION void item(const member_type& member, const long e) const {
     const TeamPoint p = point(e);
+    real_t* base = scratch.base(member, shape);  // once: both passes work in the same block
     const real_t* g =
-        team_point_position_and_tangent(manifold, member, shape, scratch, p.active, p.X, &xhat(p.b, 0), jacobian(p));
+        team_point_position_and_tangent(manifold, member, scratch, base, p.active, p.X, &xhat(p.b, 0), jacobian(p));
     write_displacement(member, p, g);
     if (node_average) {  // the whole team or none: the network's passes hold team barriers
       member.team_barrier();
       const real_t Xtest[3] = {nodes(p.i, 6), nodes(p.i, 7), nodes(p.i, 8)};
-      team_point_position_and_tangent(manifold, member, shape, scratch, p.active, Xtest, &xhat(p.b, 0), jacobian(p));
+      team_point_position_and_tangent(manifold, member, scratch, base, p.active, Xtest, &xhat(p.b, 0), jacobian(p));
     }
     hold_axes(member, p);
   }
@@ -131,9 +132,9 @@ struct TeamNodesAndSamples {
     // One call of the network for both kinds of item, so that every thread meets the same team barriers: where a
     // team thread has fewer lanes than a warp, one warp holds threads of both kinds, and a barrier its threads reach
     // at different instructions is undefined (on an H200 the test of this launch, four one-lane threads a team, hung).
-    const real_t* g = team_point_position_and_tangent(nodes.manifold, member, nodes.shape, nodes.scratch, p.active, p.X,
-                                                      node ? &nodes.xhat(p.b, 0) : &samples.xhat(p.b, 0),
-                                                      node ? nodes.jacobian(p) : samples.jacobian(p));
+    const real_t* g = team_point_position_and_tangent(
+        nodes.manifold, member, nodes.scratch, nodes.scratch.base(member, nodes.shape), p.active, p.X,
+        node ? &nodes.xhat(p.b, 0) : &samples.xhat(p.b, 0), node ? nodes.jacobian(p) : samples.jacobian(p));
     if (node) {
       nodes.write_displacement(member, p, g);
       nodes.hold_axes(member, p);

@@ -289,14 +289,13 @@ KOKKOS_INLINE_FUNCTION TeamPoint team_point(const long e, const long rollouts, c
 }
 
 // One point's position (returned) and dg/dxhat a team thread, its lanes sharing the network (SampleKinematics'
-// layout: scratch from scratch_for, the position in the thread's last kinematics_values); the team has synchronised
-// on return.
+// layout: scratch from scratch_for, the position in the thread's last kinematics_values), in the team's scratch
+// block base (TeamScratch::base, taken once by the kernel); the team has synchronised on return.
 template <class Manifold, class Member>
 KOKKOS_INLINE_FUNCTION const real_t* team_point_position_and_tangent(const Manifold& manifold, const Member& member,
-                                                                     const TeamShape& shape, const TeamScratch& scratch,
+                                                                     const TeamScratch& scratch, real_t* base,
                                                                      bool active, const real_t X[3], const real_t* xhat,
                                                                      real_t* dgdxhat) {
-  real_t* base = scratch.base(member, shape);
   const real_t* staged = manifold.team_stage(member, base);
   real_t* own = scratch.thread_part(base, member.team_rank());
   auto& kin = *reinterpret_cast<nn::PointKinematics<real_t>*>(own + (scratch.per_thread - kinematics_values));
@@ -334,8 +333,8 @@ struct SampleKinematics {
   // Item e of the launch on this team thread (an item past the last: the thread joins the team's barriers alone).
   KOKKOS_INLINE_FUNCTION void item(const member_type& member, const long e) const {
     const TeamPoint p = point(e);
-    const real_t* g =
-        team_point_position_and_tangent(manifold, member, shape, scratch, p.active, p.X, &xhat(p.b, 0), jacobian(p));
+    const real_t* g = team_point_position_and_tangent(manifold, member, scratch, scratch.base(member, shape), p.active,
+                                                      p.X, &xhat(p.b, 0), jacobian(p));
     write_position(member, p, g);
   }
 

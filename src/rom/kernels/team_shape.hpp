@@ -43,7 +43,8 @@ struct TeamScratch {
   std::size_t bytes(const TeamShape& shape) const {
     return std::size_t(values(shape)) * sizeof(real_t) + team_scratch_alignment;  // room to align the start
   }
-  // This team's block, its shared part first, then its threads' parts, then the items'.
+  // This team's block, its shared part first, then its threads' parts, then the items'. Each call takes a new block
+  // from the team's scratch, which holds one: a kernel calls it once and hands the block on (a second call gets null).
   template <class Member>
   KOKKOS_INLINE_FUNCTION real_t* base(const Member& member, const TeamShape& shape) const {
     return static_cast<real_t*>(
