@@ -379,9 +379,10 @@ void fill_strain_node_rows(const HostRows& rows, bool centroids) {
 }
 
 // The grid strain's nodes on teams with the node average (two passes of the network a team thread, GPUs' small
-// batches) give what one thread a node gives: the passes share the team's one scratch block (a second block, asked
-// of a team scratch that holds one, came back null: an illegal read on an H200). Teams of up to 4 one-lane threads
-// over 3 rollouts of 7 nodes, so that the last team has threads past the last item; equal to the bit.
+// batches) give what one thread a node gives: teams of up to 4 one-lane threads over 3 rollouts of 7 nodes, so that
+// the last team has threads past the last item; equal to the bit. (Both passes must work in one scratch block:
+// a second block came back null for a trained network's team scratch on an H200; the analytic map's small scratch
+// leaves room for a second block on the CPU and the H200 alike, so this test does not see that fault.)
 TEST_F(GalerkinForce, TeamNodesWithTheNodeAverageMatchOneThreadANode) {
   using ExecutionSpace = Kokkos::DefaultExecutionSpace;
   using MemorySpace = ExecutionSpace::memory_space;
