@@ -249,6 +249,13 @@ void add_rollout(CLI::App& app, Commands& commands) {
                 "stored ranking, or refitted to --data), cubature (ECSW's active set), region or random; auto: "
                 "greedy-projection, cubature with --method galerkin");
   command
+      ->add_option("--selection-sensitivities", o->rom_settings.selection_sensitivities,
+                   "With --selection greedy-projection: a trial set for each weight of the samples' response to the "
+                   "latent state against their increments' own (0: the increments alone); of several, the set whose "
+                   "rollouts over the training runs stay closest to the model's codes")
+      ->expected(1, 8)
+      ->capture_default_str();
+  command
       ->add_option("--reduction", o->reduction_path,
                    "An earlier ROM.h5 of this model, scene and settings whose samples, weights and sets to reuse "
                    "instead of fitting them again (they may differ in --end-time, --energy-growth and a --cfl the "

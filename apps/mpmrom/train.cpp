@@ -69,8 +69,9 @@ int train(const TrainOptions& o, const Context& context) {
   model.sample_ranking = mpmrom::rank_samples_greedily(model, data, mpmrom::ranked_samples);
   if (!o.search_scene.empty()) {
     if (!quiet) std::cerr << "mpmrom train: choosing the default sample set on " << o.search_scene << "\n";
-    const auto selector = mpmrom::default_projection_selector(model, mpmrom::load_scene(o.search_scene));
-    mpmrom::store_projection_samples(model, selector, std::size_t(mpmrom::RomSettings{}.samples),
+    const mpmrom::Scene scene = mpmrom::load_scene(o.search_scene);
+    const auto selector = mpmrom::default_projection_selector(model, scene);
+    mpmrom::store_projection_samples(model, scene, selector, std::size_t(mpmrom::RomSettings{}.samples),
                                      [quiet](const std::string& line) {
                                        if (!quiet) std::cerr << "mpmrom train: " << line << "\n";
                                      });

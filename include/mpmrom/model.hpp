@@ -41,6 +41,8 @@ struct Model {
   // docs/rom.md), stored by `mpmrom train --scene` and the pipeline. Empty in models without one.
   std::vector<std::int64_t> projection_samples;
   std::vector<double> projection_weights;
+  // The RomSettings::selection_sensitivities the stored set was chosen among (absent in a file: {0}).
+  std::vector<double> projection_sensitivities = {0};
 
   std::string scene_name;
   std::string scene_text;

@@ -73,6 +73,12 @@ struct RomSettings {
   // Greedy on the projection with its fitted weights: the lowest measured error (docs/rom.md "Defaults"); the
   // model's stored set when it holds one of this count (Model::projection_samples).
   SampleSelection selection = SampleSelection::GreedyProjection;
+  // The greedy projection's trial sets: one for each weight of the samples' response to the latent state (how a
+  // training state's increments change along each latent coordinate) against the increments' own; with several, the
+  // set whose rollouts over the training runs stay closest to the model's codes (docs/rom.md "Sample selection").
+  // The greedy error alone does not tell which set holds the motion: a set that fits the increments but not their
+  // response can give the reduced stiffness a wrong sign and blow up.
+  std::vector<double> selection_sensitivities = {0, 0.1, 0.3, 1};
   std::uint64_t seed = 1;          // random selection
   double cfl = 0;                  // time step = cfl dx / (wave speed + fastest sample); 0: the scene's cfl
   double envelope_margin = 0.25;   // cells of slack around the training motion when building the node set
@@ -207,14 +213,19 @@ CubatureFit cubature_selection(const Model& model, const CubatureSnapshots& snap
 // mass-weighted projection of each sub-step's velocity increment closest, in kinetic energy, to the all-point one
 // over the snapshots (Algorithm 1's; the Galerkin step's are refused), then exchanges samples while that lowers the
 // error. Weights: the masses; with snapshots.settings.weighting Cubature, refitted by Gauss-Newton on the same error.
-// misfits: the relative error (sqrt of the error's energy over the all-point increments'), then with the weights.
+// misfits: the increments' relative error (sqrt of the error's energy over the all-point increments'), then with
+// the weights.
 CubatureFit greedy_projection_selection(const Model& model, const CubatureSnapshots& snapshots, std::size_t count);
 // The same with the snapshots gathered once (an all-point rollout or sub-step each): select() for several counts.
+// Where snapshots.settings.selection_sensitivities holds a positive weight, the snapshots also hold the increments'
+// response to the latent state (at each state one latent coordinate a rollout, cycling, moved by 1 % of the codes'
+// spread; scaled to the increments' energy), which select() then weighs in.
 class ProjectionSelector {
  public:
   ProjectionSelector(const Model& model, const CubatureSnapshots& snapshots);
-  // count samples; fit: also fit their weights (else their masses).
-  CubatureFit select(std::size_t count, bool fit) const;
+  // count samples; fit: also fit their weights (else their masses). sensitivity: the weight of the increments'
+  // response to the latent state in the error (RomSettings::selection_sensitivities; 0: the increments alone).
+  CubatureFit select(std::size_t count, bool fit, double sensitivity) const;
 
  private:
   struct Increments;
@@ -241,8 +252,9 @@ HyperReduction prepare_hyper_reduction(const Model& model, const Scene& scene, c
 // The snapshots the stored set is fitted to: the reduced motion on the scene with RomSettings' defaults.
 ProjectionSelector default_projection_selector(const Model& model, const Scene& scene);
 // The greedy projection set with fitted weights that `mpmrom train --scene` and the pipeline store with a model
-// (Model::projection_samples), count samples, from default_projection_selector's snapshots.
-void store_projection_samples(Model& model, const ProjectionSelector& selector, std::size_t count,
+// (Model::projection_samples), count samples chosen among RomSettings' default trial sets, from
+// default_projection_selector's snapshots on the scene.
+void store_projection_samples(Model& model, const Scene& scene, const ProjectionSelector& selector, std::size_t count,
                               const std::function<void(const std::string&)>& log);
 
 // One rollout: parameter values (in the order of the batch's parameter names) and, if known, its split.

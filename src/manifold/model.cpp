@@ -49,6 +49,9 @@ void check_model(const std::string& path, const Model& m) {
     if (p < 0 || std::size_t(p) >= n) bad(path, "the stored projection samples name a point that does not exist");
   for (const double w : m.projection_weights)
     if (!(w > 0) || !std::isfinite(w)) bad(path, "the stored projection weights must be positive and finite");
+  for (const double w : m.projection_sensitivities)
+    if (!(w >= 0) || !std::isfinite(w))
+      bad(path, "the stored projection set's sensitivity weights must be finite and >= 0");
   for (int d = 0; d < 3; ++d)
     if (!(m.standardization.input_scale[d] > 0) || !(m.standardization.output_scale[d] > 0))
       bad(path, "standardisation scales must be positive");
@@ -85,6 +88,14 @@ void read_samples(const std::string& path, const hdf5::Group& samples, std::size
   m.projection_samples = indices("projection_samples");
   m.projection_weights = read_checked(path, samples.dataset("projection_weights"), {m.projection_samples.size()},
                                       "(one per stored projection sample)");
+  // absent in files written before the selection tried sets weighing the increments' response: the increments alone
+  if (samples.has_child("projection_sensitivities")) {
+    const hdf5::Dataset dataset = samples.dataset("projection_sensitivities");
+    const auto shape = dataset.shape();
+    if (shape.size() != 1 || shape[0] == 0 || shape[0] > 64)
+      bad(path, "dataset /samples/projection_sensitivities has shape " + shape_string(shape) + ", expected (1 to 64)");
+    m.projection_sensitivities = read_checked(path, dataset, shape, "");
+  }
 }
 
 }  // namespace
@@ -137,6 +148,8 @@ void save_model(const std::string& path, const Model& m, const OptimizerState* o
         const std::size_t count = m.projection_samples.size();
         write_dataset(samples, "projection_samples", hdf5::Element::int64, m.projection_samples, {count});
         write_dataset(samples, "projection_weights", hdf5::Element::float64, m.projection_weights, {count});
+        write_dataset(samples, "projection_sensitivities", hdf5::Element::float64, m.projection_sensitivities,
+                      {m.projection_sensitivities.size()});
       }
     }
 

@@ -7,6 +7,7 @@
 
 #include "core/timing.hpp"
 #include "mpmrom/rom.hpp"
+#include "rom/detail/selection_trials.hpp"
 #include "rom/detail/snapshots.hpp"
 #include "rom/detail/stable_step.hpp"
 
@@ -44,6 +45,7 @@ bool stored_set_applies(const Model& model, const Scene& scene, const RomSetting
   return settings.selection == SampleSelection::GreedyProjection &&
          settings.snapshot_source == SnapshotSource::Reduced && settings.samples > 0 &&
          model.projection_samples.size() == std::size_t(settings.samples) &&
+         model.projection_sensitivities == settings.selection_sensitivities &&
          same_projection_step(settings, stored_set_settings(), scene);
 }
 
@@ -84,9 +86,10 @@ CubatureFit joint_selection(const Model& model, const Scene& scene, const RomSet
         " samples to the all-point reduced model's sub-steps (" + to_string(settings.snapshot_source) +
         " snapshots; `mpmrom train --scene` stores a set of " + std::to_string(RomSettings{}.samples) +
         " with the model, for the default time step and projection)");
-    selected = selector ? selector(settings).select(std::size_t(settings.samples), fit)
-                        : ProjectionSelector(model, cubature_snapshots(scene, settings, data))
-                              .select(std::size_t(settings.samples), fit);
+    selected = selector ? impl::tried_projection_set(model, scene, settings, selector(settings), fit, log)
+                        : impl::tried_projection_set(
+                              model, scene, settings,
+                              ProjectionSelector(model, cubature_snapshots(scene, settings, data)), fit, log);
     say("greedy projection: relative error" + misfit_list(selected.misfits) +
         " (the samples' projection of the velocity increments against every point's; masses" +
         (fit ? ", then fitted weights)" : ")"));
@@ -163,11 +166,14 @@ ProjectionSelector default_projection_selector(const Model& model, const Scene& 
   return ProjectionSelector(model, cubature_snapshots(scene, stored_set_settings(), nullptr));
 }
 
-void store_projection_samples(Model& model, const ProjectionSelector& selector, std::size_t count,
+void store_projection_samples(Model& model, const Scene& scene, const ProjectionSelector& selector, std::size_t count,
                               const std::function<void(const std::string&)>& log) {
-  const CubatureFit fit = selector.select(count, true);
+  RomSettings settings = stored_set_settings();
+  settings.samples = int(count);
+  const CubatureFit fit = impl::tried_projection_set(model, scene, settings, selector, true, log);
   model.projection_samples.assign(fit.samples.begin(), fit.samples.end());
   model.projection_weights = fit.weights;
+  model.projection_sensitivities = settings.selection_sensitivities;
   if (log)
     log("greedy projection: stored " + std::to_string(fit.samples.size()) + " samples, relative error" +
         misfit_list(fit.misfits) + " (masses, then fitted weights)");

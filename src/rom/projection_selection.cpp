@@ -30,8 +30,9 @@ using impl::SnapshotStream;
 struct IncrementSnapshots {
   int r = 0;
   std::size_t T = 0, C = 0;
-  std::vector<double> A, delta;  // (T, r, r), (T, r): the all-point projection
-  std::vector<double> J, dv;     // (T, C, 3, r), (T, C, 3): the candidates' rows
+  std::vector<double> A, delta;   // (T, r, r), (T, r): the all-point projection
+  std::vector<double> J, dv;      // (T, C, 3, r), (T, C, 3): the candidates' rows
+  std::vector<char> sensitivity;  // (T): whether snapshot t is a response to the latent state
 };
 
 IncrementSnapshots increment_snapshots(const Model& model, const SnapshotStream& snapshots,
@@ -61,6 +62,7 @@ IncrementSnapshots increment_snapshots(const Model& model, const SnapshotStream&
     if (!dense::SerialCholesky(L.data(), r, r)) return;  // a degenerate snapshot says nothing
     dense::SerialCholeskySolve(L.data(), r, r, delta.data());
     set.A.insert(set.A.end(), A.begin(), A.end());
+    set.sensitivity.push_back(snapshot.sensitivity);
     set.delta.insert(set.delta.end(), delta.begin(), delta.end());
     for (const std::size_t c : snapshot.rows_of(candidates)) {
       set.J.insert(set.J.end(), snapshot.J + c * 3 * std::size_t(r), snapshot.J + (c + 1) * 3 * std::size_t(r));
@@ -108,18 +110,21 @@ bool solve_samples(const IncrementSnapshots& set, std::size_t t, const std::vect
   return true;
 }
 
-// The summed kinetic energy of (delta_S - delta) over the snapshots, with candidate c (weight w) added.
+// The summed kinetic energy of (delta_S - delta) over the snapshots, with candidate c (weight w) added; the responses
+// count `sensitivity` times (0: the increments alone).
 double projection_error(const IncrementSnapshots& set, const std::vector<double>& A_base,
-                        const std::vector<double>& b_base, long c, double w) {
+                        const std::vector<double>& b_base, long c, double w, double sensitivity) {
   const int r = set.r;
   double error = 0;
   for (std::size_t t = 0; t < set.T; ++t) {
+    const double share = set.sensitivity[t] ? sensitivity : 1;
+    if (share == 0) continue;
     double A[rom::max_latent_dim * rom::max_latent_dim], b[rom::max_latent_dim];
     if (!solve_samples(set, t, A_base, b_base, c, w, A, b)) return std::numeric_limits<double>::infinity();
     const double* full = &set.A[t * std::size_t(r * r)];
     const double* delta = &set.delta[t * std::size_t(r)];
     for (int i = 0; i < r; ++i)
-      for (int j = 0; j < r; ++j) error += (b[i] - delta[i]) * full[i * r + j] * (b[j] - delta[j]);
+      for (int j = 0; j < r; ++j) error += share * (b[i] - delta[i]) * full[i * r + j] * (b[j] - delta[j]);
   }
   return error;
 }
@@ -127,7 +132,7 @@ double projection_error(const IncrementSnapshots& set, const std::vector<double>
 // Gauss-Newton (Levenberg-Marquardt) on the log-weights w_s = m_s exp(u_s) of the chosen candidates, minimising
 // projection_error: the weights that make the samples' projection closest to the all-point one.
 std::vector<double> fit_weights(const IncrementSnapshots& set, const std::vector<std::size_t>& chosen,
-                                std::vector<double> w) {
+                                std::vector<double> w, double sensitivity) {
   const int r = set.r;
   const std::size_t n = chosen.size(), R = set.T * std::size_t(r), rr = std::size_t(r * r);
   const auto sums = [&](const std::vector<double>& weights, std::vector<double>& A, std::vector<double>& b) {
@@ -136,10 +141,11 @@ std::vector<double> fit_weights(const IncrementSnapshots& set, const std::vector
   };
   std::vector<double> A, b, G(n * n), g(n), Jres(R * n), res(R);
   sums(w, A, b);
-  double error = projection_error(set, A, b, -1, 0), mu = 1e-3;
+  double error = projection_error(set, A, b, -1, 0, sensitivity), mu = 1e-3;
   for (int iteration = 0; iteration < 30; ++iteration) {
     // Residual L_t^T (delta_S - delta) and its derivative along u_k: L_t^T A_S^-1 w_k (b_k - A_k delta_S).
     for (std::size_t t = 0; t < set.T; ++t) {
+      const double share = std::sqrt(set.sensitivity[t] ? sensitivity : 1.0);  // the residual's, squared in the error
       double LS[rom::max_latent_dim * rom::max_latent_dim], dS[rom::max_latent_dim],
           L[rom::max_latent_dim * rom::max_latent_dim];
       solve_samples(set, t, A, b, -1, 0, LS, dS);
@@ -152,7 +158,7 @@ std::vector<double> fit_weights(const IncrementSnapshots& set, const std::vector
         }
       };
       double e[rom::max_latent_dim];
-      for (int i = 0; i < r; ++i) e[i] = dS[i] - set.delta[t * std::size_t(r) + std::size_t(i)];
+      for (int i = 0; i < r; ++i) e[i] = share * (dS[i] - set.delta[t * std::size_t(r) + std::size_t(i)]);
       apply_Lt(e, &res[t * std::size_t(r)]);
       for (std::size_t k = 0; k < n; ++k) {
         double q[rom::max_latent_dim] = {0};
@@ -161,7 +167,7 @@ std::vector<double> fit_weights(const IncrementSnapshots& set, const std::vector
           double Jd = 0;
           for (int i = 0; i < r; ++i) Jd += row[i] * dS[i];
           const double f = set.dv[(t * set.C + chosen[k]) * 3 + std::size_t(d)] - Jd;
-          for (int i = 0; i < r; ++i) q[i] += w[k] * row[i] * f;
+          for (int i = 0; i < r; ++i) q[i] += share * w[k] * row[i] * f;
         }
         dense::SerialCholeskySolve(LS, r, r, q);
         double out[rom::max_latent_dim];
@@ -184,7 +190,7 @@ std::vector<double> fit_weights(const IncrementSnapshots& set, const std::vector
       for (std::size_t a = 0; a < n; ++a) trial[a] = w[a] * std::exp(std::clamp(step[a], -2.0, 2.0));
       std::vector<double> At, bt;
       sums(trial, At, bt);
-      const double e = projection_error(set, At, bt, -1, 0);
+      const double e = projection_error(set, At, bt, -1, 0, sensitivity);
       if (e < error) improved = true, error = e, w = trial, A = At, b = bt, mu = std::max(mu / 100, 1e-9);
     }
     if (!improved) break;
@@ -195,14 +201,17 @@ std::vector<double> fit_weights(const IncrementSnapshots& set, const std::vector
 // The samples chosen so far, their normal equations per snapshot (masses as weights) and their error.
 class SampleSet {
  public:
-  SampleSet(const IncrementSnapshots& set, std::vector<double> masses)
+  SampleSet(const IncrementSnapshots& set, std::vector<double> masses, double sensitivity)
       : set_(set),
         masses_(std::move(masses)),
+        sensitivity_(sensitivity),
         taken_(masses_.size(), false),
         A_(set.T * std::size_t(set.r * set.r), 0.0),
         b_(set.T * std::size_t(set.r), 0.0) {}
   const std::vector<std::size_t>& chosen() const { return chosen_; }
   double error() const { return error_; }
+  const std::vector<double>& normal_matrices() const { return A_; }
+  const std::vector<double>& right_hand_sides() const { return b_; }
   // Greedy: adds the candidate that lowers the error most, count times (or until none is left).
   void grow(std::size_t count) {
     while (chosen_.size() < count) {
@@ -237,28 +246,45 @@ class SampleSet {
     best_error = std::numeric_limits<double>::infinity();
     for (std::size_t c = 0; c < masses_.size(); ++c) {
       if (taken_[c]) continue;
-      const double error = projection_error(set_, A_, b_, long(c), masses_[c]);
+      const double error = projection_error(set_, A_, b_, long(c), masses_[c], sensitivity_);
       if (error < best_error) best_error = error, best = long(c);
     }
     return best;
   }
   const IncrementSnapshots& set_;
   std::vector<double> masses_;
+  double sensitivity_;
   std::vector<bool> taken_;
   std::vector<double> A_, b_;
   std::vector<std::size_t> chosen_;
   double error_ = std::numeric_limits<double>::infinity();
 };
 
-// sum_t delta_t^T A_t delta_t: the all-point increments' kinetic energy, which the errors are relative to.
-double increment_energy(const IncrementSnapshots& set) {
+// sum_t delta_t^T A_t delta_t over the sub-steps' increments or (sensitivities) their responses: the all-point
+// kinetic energy the errors are relative to.
+double increment_energy(const IncrementSnapshots& set, bool sensitivities = false) {
   const std::size_t r = std::size_t(set.r);
   double energy = 0;
   for (std::size_t t = 0; t < set.T; ++t)
-    for (std::size_t i = 0; i < r; ++i)
-      for (std::size_t j = 0; j < r; ++j)
-        energy += set.delta[t * r + i] * set.A[(t * r + i) * r + j] * set.delta[t * r + j];
+    if (bool(set.sensitivity[t]) == sensitivities)
+      for (std::size_t i = 0; i < r; ++i)
+        for (std::size_t j = 0; j < r; ++j)
+          energy += set.delta[t * r + i] * set.A[(t * r + i) * r + j] * set.delta[t * r + j];
   return energy;
+}
+
+// Scales the responses so that their all-point energy is the increments': a sensitivity weight then weighs the two
+// blocks' relative errors, whatever the units and the number of latent coordinates.
+void normalize_sensitivities(IncrementSnapshots& set) {
+  const double responses = increment_energy(set, true);
+  if (!(responses > 0)) return;
+  const double scale = std::sqrt(increment_energy(set) / responses);
+  const std::size_t r = std::size_t(set.r), values = set.C * 3;
+  for (std::size_t t = 0; t < set.T; ++t) {
+    if (!set.sensitivity[t]) continue;
+    for (std::size_t i = 0; i < r; ++i) set.delta[t * r + i] *= scale;
+    for (std::size_t k = 0; k < values; ++k) set.dv[t * values + k] *= scale;
+  }
 }
 
 }  // namespace
@@ -273,36 +299,48 @@ struct ProjectionSelector::Increments {
 ProjectionSelector::ProjectionSelector(const Model& model, const CubatureSnapshots& snapshots) {
   auto increments = std::make_shared<Increments>();
   increments->candidates = impl::all_candidates(model, snapshots.max_candidates).points;
-  increments->set = increment_snapshots(model, impl::snapshot_stream(model, snapshots), increments->candidates);
+  const std::vector<double>& weights = snapshots.settings.selection_sensitivities;
+  // the responses of the grid methods' reduced sub-steps (other snapshots are refused below, as before the trials)
+  const bool responses = std::any_of(weights.begin(), weights.end(), [](double w) { return w > 0; }) &&
+                         snapshots.data == nullptr && snapshots.settings.method != RomMethod::Galerkin;
+  increments->set =
+      increment_snapshots(model, impl::snapshot_stream(model, snapshots, responses), increments->candidates);
   for (const int c : increments->candidates) increments->masses.push_back(model.mass[std::size_t(c)]);
+  normalize_sensitivities(increments->set);
   increments->energy = increment_energy(increments->set);
   increments_ = std::move(increments);
 }
 
-CubatureFit ProjectionSelector::select(std::size_t count, bool fit) const {
+CubatureFit ProjectionSelector::select(std::size_t count, bool fit, double sensitivity) const {
   const Increments& in = *increments_;
   const IncrementSnapshots& set = in.set;
-  SampleSet samples(set, in.masses);
+  if (sensitivity > 0 && std::find(set.sensitivity.begin(), set.sensitivity.end(), 1) == set.sensitivity.end())
+    throw std::logic_error("greedy projection: a sensitivity weight, but the snapshots hold no responses");
+  SampleSet samples(set, in.masses, sensitivity);
   samples.grow(std::min(count, in.candidates.size()));
   for (int pass = 0; pass < max_exchange_passes && samples.exchange(); ++pass) {
   }
   CubatureFit selected;
-  selected.misfits = {std::sqrt(samples.error() / in.energy)};
+  // The misfits are of the increments alone (with a sensitivity weight the search's objective is not theirs only).
+  const auto misfit = [&](const std::vector<double>& A, const std::vector<double>& b) {
+    return std::sqrt(projection_error(set, A, b, -1, 0, 0.0) / in.energy);
+  };
+  selected.misfits = {misfit(samples.normal_matrices(), samples.right_hand_sides())};
   for (const std::size_t c : samples.chosen())
     selected.samples.push_back(in.candidates[c]), selected.weights.push_back(in.masses[c]);
   if (fit) {
-    selected.weights = fit_weights(set, samples.chosen(), selected.weights);
+    selected.weights = fit_weights(set, samples.chosen(), selected.weights, sensitivity);
     std::vector<double> A(set.T * std::size_t(set.r * set.r), 0.0), b(set.T * std::size_t(set.r), 0.0);
     for (std::size_t k = 0; k < selected.weights.size(); ++k)
       add_rows(set, samples.chosen()[k], selected.weights[k], A, b);
-    selected.misfits.push_back(std::sqrt(projection_error(set, A, b, -1, 0) / in.energy));
+    selected.misfits.push_back(misfit(A, b));
   }
   return selected;
 }
 
 CubatureFit greedy_projection_selection(const Model& model, const CubatureSnapshots& snapshots, std::size_t count) {
   return ProjectionSelector(model, snapshots)
-      .select(count, fitted_weights(snapshots.settings) == SampleWeighting::Cubature);
+      .select(count, fitted_weights(snapshots.settings) == SampleWeighting::Cubature, 0.0);
 }
 
 }  // namespace mpmrom

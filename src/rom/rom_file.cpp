@@ -375,8 +375,12 @@ HyperReduction reduction_from_rom(const RomFile& rom, const std::string& path, c
   nlohmann::json own = settings.to_json(), stored = rom.settings;
   if (fitted_cfl(own) != fitted_cfl(stored)) refuse("its fits ran at another time step (--cfl)");
   for (const char* free : {"end_time", "energy_growth", "cfl", "integrator"}) own.erase(free), stored.erase(free);
-  // A setting added since the file was written counts at its default: what the builds before it did.
-  const nlohmann::json defaults = RomSettings{}.to_json();
+  if (settings.selection != SampleSelection::GreedyProjection)  // the others' samples do not depend on it
+    own.erase("selection_sensitivities"), stored.erase("selection_sensitivities");
+  // A setting added since the file was written counts at its default: what the builds before it did, but for a
+  // default that changed the builds' behaviour (their selection weighed no sensitivity).
+  nlohmann::json defaults = RomSettings{}.to_json();
+  defaults["selection_sensitivities"] = std::vector<double>{0.0};
   for (const auto& [key, value] : own.items())
     if (stored.contains(key) ? stored[key] != value : !(defaults.contains(key) && defaults[key] == value))
       refuse("--" + flag_name(key) + " differs (" + (stored.contains(key) ? stored[key].dump() : "absent") +

@@ -127,6 +127,7 @@ nlohmann::json RomSettings::to_json() const {
   return {{"method", to_string(method)},
           {"samples", samples},
           {"selection", to_string(selection)},
+          {"selection_sensitivities", selection_sensitivities},
           {"seed", seed},
           {"cfl", cfl},
           {"envelope_margin", envelope_margin},
@@ -170,6 +171,10 @@ void RomSettings::validate() const {
   if (projection_iterations < 0 || projection_iterations > 10)
     throw std::invalid_argument("--projection-iterations must be in [0, 10]");
   if (!(rate_damping >= 0) || rate_damping > 1e6) throw std::invalid_argument("--rate-damping must be in [0, 1e6]");
+  if (selection_sensitivities.empty() || selection_sensitivities.size() > 8)
+    throw std::invalid_argument("--selection-sensitivities takes 1 to 8 weights");
+  for (const double w : selection_sensitivities)
+    if (!(w >= 0) || w > 1e3) throw std::invalid_argument("--selection-sensitivities must be in [0, 1000]");
   if (method == RomMethod::Galerkin && projection == ProjectionScheme::Position)
     throw std::invalid_argument("--method galerkin takes --projection velocity");
   if (cubature_candidates < 16 || cubature_candidates > 65536)

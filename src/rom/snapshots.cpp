@@ -191,18 +191,81 @@ std::unique_ptr<impl::BatchStepperBase> grid_target_stepper(const Model& model, 
   return snapshot_stepper(model, scene_path, scene, grid, cases, points, codes);
 }
 
+// The spread (standard deviation) of each latent coordinate over the model's codes: the scale of the motion along it.
+std::vector<double> code_spread(const Model& model) {
+  const std::size_t r = std::size_t(model.latent_dim), n = model.num_codes();
+  std::vector<double> mean(r, 0.0), spread(r, 0.0);
+  for (std::size_t c = 0; c < n; ++c)
+    for (std::size_t q = 0; q < r; ++q) mean[q] += model.codes[c * r + q] / double(n);
+  for (std::size_t c = 0; c < n; ++c)
+    for (std::size_t q = 0; q < r; ++q) spread[q] += std::pow(model.codes[c * r + q] - mean[q], 2) / double(n);
+  for (double& s : spread) s = std::sqrt(s);
+  return spread;
+}
+
+// A forward difference's step, relative to the code spread: small enough that the increments' response is linear
+// (their grid transfer is C1 in the positions), large enough that float rounding stays far below it.
+constexpr double sensitivity_step = 1e-2;
+
+// The increments' response to one latent coordinate k a rollout, by a forward difference from `state` (whose
+// sub-step the stepper has just probed): (increment(xhat + h e_k) - increment(xhat)) s_k / h with J at xhat, s_k the
+// code spread, so that it says how the increments change over the motion's scale along k. Rollout b takes
+// k = (turn + b) mod r: over the states the responses cover every coordinate at one probe a state, not r. Emits the
+// probed sub-step's own snapshots first when emit_base.
+void use_sensitivities(const Model& model, impl::BatchStepperBase& stepper, const impl::BatchState& state,
+                       const impl::Candidates* candidates, std::size_t turn, bool emit_base,
+                       const std::function<void(const PointSnapshot&)>& use) {
+  const std::size_t r = std::size_t(model.latent_dim), P = model.num_points();
+  const std::size_t values = (candidates ? candidates->points.size() : P) * 3;
+  const std::size_t rollouts = std::size_t(stepper.rollouts());
+  std::vector<std::vector<double>> J(rollouts), base(rollouts);
+  use_last_substep(stepper, candidates, P, false, [&](const PointSnapshot& snapshot) {
+    if (emit_base) use(snapshot);
+    J[std::size_t(snapshot.run)].assign(snapshot.J, snapshot.J + values * r);
+    base[std::size_t(snapshot.run)].assign(snapshot.fields[0], snapshot.fields[0] + values);
+  });
+  const std::vector<double> spread = code_spread(model);
+  std::vector<double> step(rollouts, 0.0);
+  impl::BatchState moved = state;
+  for (std::size_t b = 0; b < rollouts; ++b) {
+    const std::size_t k = (turn + b) % r;
+    step[b] = sensitivity_step * spread[k];  // 0 along a coordinate the training motion never moves along
+    moved.xhat[b * r + k] += step[b];
+  }
+  stepper.restore(moved);
+  stepper.probe_substep();
+  std::vector<double> response(values);
+  use_last_substep(stepper, candidates, P, false, [&](const PointSnapshot& snapshot) {
+    const std::size_t b = std::size_t(snapshot.run);
+    if (base[b].empty() || !(step[b] > 0)) return;  // the base sub-step failed, or no motion along k
+    const double scale = spread[(turn + b) % r] / step[b];
+    for (std::size_t i = 0; i < values; ++i) response[i] = (snapshot.fields[0][i] - base[b][i]) * scale;
+    PointSnapshot sensitivity{J[b].data(), {response.data()}, nullptr, snapshot.points, snapshot.row_masses};
+    sensitivity.run = snapshot.run;
+    sensitivity.sensitivity = true;
+    use(sensitivity);
+  });
+}
+
 // The all-point reduced model over at most max_rollouts of the scene's training design, at every output frame.
 SnapshotStream reduced_motion(const Model& model, const std::string& scene_path, const RomSettings& settings,
-                              std::size_t max_rollouts) {
-  return [&model, scene_path, settings, max_rollouts](const std::function<void(const PointSnapshot&)>& use) {
+                              std::size_t max_rollouts, bool responses) {
+  return [&model, scene_path, settings, max_rollouts, responses](const std::function<void(const PointSnapshot&)>& use) {
     const Scene scene = load_scene(scene_path);
     std::vector<int> indices;
     const auto cases = training_cases(scene, max_rollouts, indices);
     auto stepper = snapshot_stepper(model, scene_path, scene, settings, cases, every_point(model));
     auto grid = grid_target_stepper(model, scene_path, scene, settings, cases, every_point(model));
     if (!grid) {
-      while (stepper->advance_frame())
+      while (stepper->advance_frame()) {
         use_last_substep(*stepper, nullptr, model.num_points(), settings.method == RomMethod::Galerkin, use);
+        const impl::BatchState state = stepper->state();
+        if (!responses || state.frame + 1 >= stepper->frames()) continue;
+        stepper->restore(state);  // the responses are taken from the frame's state, then the motion goes on from it
+        stepper->probe_substep();
+        use_sensitivities(model, *stepper, state, nullptr, std::size_t(state.frame), false, use);
+        stepper->restore(state);
+      }
       return;
     }
     // The grid step's all-point motion, both steps probed from each of its output frames.
@@ -235,9 +298,9 @@ std::vector<int> probed_codes(const Model& model, const std::vector<int>& indice
 // the run's code there and xhatdot the central difference of its codes (as training defines the rate). Each snapshot
 // costs one sub-step, not a rollout: the source that scales.
 SnapshotStream training_states(const Model& model, const std::string& scene_path, const RomSettings& settings,
-                               std::size_t max_rollouts, std::size_t max_candidates) {
-  return [&model, scene_path, settings, max_rollouts,
-          max_candidates](const std::function<void(const PointSnapshot&)>& use) {
+                               std::size_t max_rollouts, std::size_t max_candidates, bool responses) {
+  return [&model, scene_path, settings, max_rollouts, max_candidates,
+          responses](const std::function<void(const PointSnapshot&)>& use) {
     const Scene scene = load_scene(scene_path);
     std::vector<int> indices;
     // A body larger than the candidates is sampled at them alone (J at 2048 points instead of every one).
@@ -261,8 +324,11 @@ SnapshotStream training_states(const Model& model, const std::string& scene_path
       }
       stepper->restore(state);
       stepper->probe_substep();
-      use_last_substep(*stepper, sampled ? &candidates : nullptr, model.num_points(),
-                       settings.method == RomMethod::Galerkin, use);
+      if (responses)
+        use_sensitivities(model, *stepper, state, sampled ? &candidates : nullptr, std::size_t(f), true, use);
+      else
+        use_last_substep(*stepper, sampled ? &candidates : nullptr, model.num_points(),
+                         settings.method == RomMethod::Galerkin, use);
     }
   };
 }
@@ -339,13 +405,16 @@ std::vector<std::size_t> PointSnapshot::rows_of(const std::vector<int>& wanted) 
   return rows;
 }
 
-SnapshotStream snapshot_stream(const Model& model, const CubatureSnapshots& snapshots) {
+SnapshotStream snapshot_stream(const Model& model, const CubatureSnapshots& snapshots, bool responses) {
+  if (responses && (snapshots.data != nullptr || snapshots.settings.method == RomMethod::Galerkin))
+    throw std::logic_error("snapshots: responses are taken of the grid methods' reduced sub-steps alone");
   if (snapshots.data != nullptr) return training_runs(model, *snapshots.data, snapshots.count);
   if (snapshots.scene_path.empty())
     throw std::invalid_argument("cubature: neither training runs nor a scene to roll the reduced model out on");
   if (snapshots.settings.snapshot_source == SnapshotSource::States)
-    return training_states(model, snapshots.scene_path, snapshots.settings, snapshots.count, snapshots.max_candidates);
-  return reduced_motion(model, snapshots.scene_path, snapshots.settings, snapshots.count);
+    return training_states(model, snapshots.scene_path, snapshots.settings, snapshots.count, snapshots.max_candidates,
+                           responses);
+  return reduced_motion(model, snapshots.scene_path, snapshots.settings, snapshots.count, responses);
 }
 
 // Spread in space, not in index: a stride through the points' lattice order aliases with it (on the 10^5 cylinder,

@@ -140,7 +140,8 @@ TEST_F(RolloutBatchApi, TrainingAtSomePointsKeepsTheWholeBody) {
 
 // The default hyper-reduction: the set `mpmrom train --scene` stores is the greedy projection selection with fitted
 // weights (the same deterministic computation), a rollout of that count uses it as stored (its weights, or the
-// masses with --weights mass), and another count, or a model without a stored set, is fitted at set-up.
+// masses with --weights mass), and another count, another list of trial sets, or a model without a stored set, is
+// fitted at set-up (with one trial set, the greedy projection selection; the trials are tested in tests/rom).
 TEST_F(RolloutBatchApi, StoredProjectionSetIsTheDefaultHyperReduction) {
   const Model model = load_model(model_path()), unranked = load_model(unranked_model_path());
   const Scene scene = load_scene(scene_path());
@@ -161,6 +162,7 @@ TEST_F(RolloutBatchApi, StoredProjectionSetIsTheDefaultHyperReduction) {
   EXPECT_TRUE(masses.weights.empty());  // empty: the samples' masses
   s.weighting = SampleWeighting::Auto;
   s.samples = 5;
+  s.selection_sensitivities = {0};
   CubatureSnapshots snapshots = cubature_snapshots(scene, s, nullptr);
   snapshots.settings.weighting = SampleWeighting::Cubature;
   const CubatureFit five = greedy_projection_selection(model, snapshots, 5);
@@ -172,6 +174,7 @@ TEST_F(RolloutBatchApi, StoredProjectionSetIsTheDefaultHyperReduction) {
   // The stored count at another time step: fitted to that step's motion, not the stored set; the scene's own CFL
   // number given explicitly is the default step, and the stored set applies.
   s = settings();
+  s.selection_sensitivities = {0};
   s.cfl = 3 * scene.cfl;
   CubatureSnapshots at_cfl = cubature_snapshots(scene, s, nullptr);
   at_cfl.settings.weighting = SampleWeighting::Cubature;
@@ -187,8 +190,11 @@ TEST_F(RolloutBatchApi, StoredProjectionSetIsTheDefaultHyperReduction) {
   EXPECT_EQ(other_step.samples, refit.samples);
   EXPECT_EQ(other_step.weights, refit.weights);
   s.cfl = scene.cfl;
+  prepare_hyper_reduction(model, scene, s, nullptr, {}, count_asks);
+  EXPECT_EQ(asked, 2);  // the stored set was chosen among other trial sets: fitted again
+  s.selection_sensitivities = settings().selection_sensitivities;
   EXPECT_EQ(prepare_hyper_reduction(model, scene, s, nullptr, {}, count_asks).samples, stored.samples);
-  EXPECT_EQ(asked, 1);  // the stored set: no snapshots asked for
+  EXPECT_EQ(asked, 2);  // the stored set: no snapshots asked for
 }
 
 // `mpmrom evaluate` against a fresh sweep of new parameter points, all of them marked test: every rollout finds its

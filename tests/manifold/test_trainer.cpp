@@ -293,6 +293,7 @@ TEST(ModelFile, RoundTripsAndRefusesBadFiles) {
   Model model = train_model(data, settings, "", false);
   model.projection_samples = {3, 0, 7};  // the rom stage's stored sample set (its choice is tested there)
   model.projection_weights = {0.5, 1.25, 2.0};
+  model.projection_sensitivities = {0, 0.25};
   const auto dir = std::filesystem::temp_directory_path() / ("mpmrom_test_model_" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
   const std::string path = (dir / "model.h5").string();
@@ -307,6 +308,7 @@ TEST(ModelFile, RoundTripsAndRefusesBadFiles) {
   EXPECT_EQ(loaded.errors, model.errors);
   EXPECT_EQ(loaded.projection_samples, model.projection_samples);
   EXPECT_EQ(loaded.projection_weights, model.projection_weights);  // float64 whatever the build
+  EXPECT_EQ(loaded.projection_sensitivities, model.projection_sensitivities);
 
   const auto expect_refused = [&](const std::string& file, const std::string& words) {
     try {

@@ -50,7 +50,8 @@ class RolloutBatchApi : public ::testing::Test {
     const auto data = sweep_and_train_small_model(scene_path(), dir_, unranked_model_path());
     Model model = load_model(unranked_model_path());  // the weights as stored, in the build's precision
     model.sample_ranking = rank_samples_greedily(model, data, ranked_samples);  // as `mpmrom train` stores it
-    store_projection_samples(model, default_projection_selector(model, load_scene(scene_path())),
+    const Scene scene = load_scene(scene_path());
+    store_projection_samples(model, scene, default_projection_selector(model, scene),
                              std::size_t(RolloutBatchApi::settings().samples), {});
     save_model(model_path(), model);
   }

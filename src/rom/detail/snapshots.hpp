@@ -24,6 +24,7 @@ struct PointSnapshot {
   // The reduced force's all-point sum (r values) where it is another step's than the samples' (the grid step's over
   // every point, CubatureTarget::Grid; null: the rows' mass-weighted sum of reduced).
   const double* reduced_target_sum = nullptr;
+  bool sensitivity = false;  // a field's response to a latent coordinate, not a sub-step's own field
   int run = 0;  // the training run (of the stream's) it was taken from: the fits hold one run out to validate
   std::size_t blocks() const { return fields.size() + (reduced != nullptr ? 1 : 0); }
   std::size_t rows(std::size_t num_points) const { return points ? points->size() : num_points; }
@@ -37,8 +38,10 @@ struct PointSnapshot {
 };
 using SnapshotStream = std::function<void(const std::function<void(const PointSnapshot&)>&)>;
 
-// The snapshots `snapshots` describes: the full-order runs, the all-point reduced motion or its training states.
-SnapshotStream snapshot_stream(const Model& model, const CubatureSnapshots& snapshots);
+// The snapshots `snapshots` describes: the full-order runs, the all-point reduced motion or its training states; with
+// responses (the greedy projection's trial sets; the grid methods' reduced snapshots alone), each state's sub-step
+// also gives its increments' response to the latent state (PointSnapshot::sensitivity).
+SnapshotStream snapshot_stream(const Model& model, const CubatureSnapshots& snapshots, bool responses = false);
 
 // The model's codes of design run `index` (its file named run_<index>.h5 by the sweep), by time.
 std::vector<std::size_t> codes_of_run(const Model& model, int index);

@@ -164,7 +164,8 @@ Model PipelineStudy::trained(const NetworkShape& shape) {
       if (model.sample_ranking.empty() || model.projection_samples.empty()) {  // written before these were stored
         if (model.sample_ranking.empty()) model.sample_ranking = rank_samples_greedily(model, fit_, ranked_samples);
         if (model.projection_samples.empty())
-          store_projection_samples(model, runner_.default_selector(model), std::size_t(RomSettings{}.samples), log_);
+          store_projection_samples(model, runner_.scene(), runner_.default_selector(model),
+                                   std::size_t(RomSettings{}.samples), log_);
         save_model(path, model);
       }
       if (fs::exists(history_path)) std::ifstream(history_path) >> history;
@@ -187,7 +188,8 @@ Model PipelineStudy::trained(const NetworkShape& shape) {
   const std::string checkpoint = path + ".ckpt";
   model = train_model(fit_, training, checkpoint, fs::exists(checkpoint), callbacks);
   model.sample_ranking = rank_samples_greedily(model, fit_, ranked_samples);
-  store_projection_samples(model, runner_.default_selector(model), std::size_t(RomSettings{}.samples), log_);
+  store_projection_samples(model, runner_.scene(), runner_.default_selector(model), std::size_t(RomSettings{}.samples),
+                           log_);
   save_model(path, model);
   write_file_atomically(history_path, history.dump());
   std::error_code ignored;
