@@ -36,14 +36,16 @@ double training_rollout_error(const Model& model, const Scene& scene, const RomS
       if (stepper->flags(int(b)) & rom::fatal_flags) return std::numeric_limits<double>::infinity();
       if (std::size_t(state.frame) >= codes[b].size())
         throw std::runtime_error("trial sets: the model holds fewer codes of a training run than its frames");
-      rolled_codes.insert(rolled_codes.end(), &state.xhat[b * r], &state.xhat[(b + 1) * r]);
+      const double* code = state.xhat.data() + b * r;
+      rolled_codes.insert(rolled_codes.end(), code, code + r);
       const double* own = &model.codes[codes[b][std::size_t(state.frame)] * r];
       own_codes.insert(own_codes.end(), own, own + r);
     }
   }
   const Candidates at = all_candidates(model, std::size_t(settings.cubature_candidates));
   std::vector<double> X;
-  for (const int p : at.points) X.insert(X.end(), &model.X[std::size_t(p) * 3], &model.X[std::size_t(p) * 3 + 3]);
+  for (const int p : at.points)
+    X.insert(X.end(), model.X.data() + std::size_t(p) * 3, model.X.data() + std::size_t(p) * 3 + 3);
   const std::vector<double> rates(rolled_codes.size(), 0.0);
   const std::vector<double> x = decode(model, X, rolled_codes, rates).x, y = decode(model, X, own_codes, rates).x;
   const std::size_t n = at.points.size(), count = rolled_codes.size() / r;
