@@ -3,8 +3,9 @@
 # the model search for two targets (1 % and 0.3 % validation position error) over r in {3, 5, 8} at width 16 and
 # r = 5 at width 32 (5 layers), Algorithm 1 and the Galerkin step with 8, 15, 30 and all samples at the scene's time
 # step and at CFL 3, on the networks the search trains (it skips those whose predicted cost cannot beat its choice).
-# 13 minutes on 2 CPU cores at d4dddf9 (two networks trained); outputs in out/poke_report/, the report, its JSON and
-# its charts copied to docs/results/poke_pipeline/.
+# 13 minutes on 2 CPU cores at d4dddf9 (two networks trained), 17 minutes at e81dcdf with the networks reused (the
+# trial sets' set-up); outputs in out/poke_report/, the report, its JSON and its charts copied to
+# docs/results/poke_pipeline/.
 set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 build_dir=$("$here/scripts/build.sh" double)
