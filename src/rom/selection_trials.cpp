@@ -60,12 +60,36 @@ double training_rollout_error(const Model& model, const Scene& scene, const RomS
   return displacement > 0 ? std::sqrt(misfit / displacement) : std::sqrt(misfit);
 }
 
+namespace {
+
+// Whether the model holds a code at each of the scene's output frames of some of its training runs: what the trial
+// sets' rollouts are scored against (a model trained on a sweep of other output times or runs holds none).
+bool holds_training_codes(const Model& model, const Scene& scene, std::size_t runs) {
+  std::vector<int> indices;
+  try {
+    trained_cases(model, scene, runs, indices);
+  } catch (const std::runtime_error&) {
+    return false;
+  }
+  for (const int index : indices)
+    if (codes_of_run(model, index).size() != std::size_t(scene.num_outputs) + 1) return false;
+  return true;
+}
+
+}  // namespace
+
 CubatureFit tried_projection_set(const Model& model, const Scene& scene, const RomSettings& settings,
                                  const ProjectionSelector& selector, bool fit,
                                  const std::function<void(const std::string&)>& log) {
   const std::vector<double>& weights = settings.selection_sensitivities;
   const std::size_t count = std::size_t(settings.samples);
   if (weights.size() == 1) return selector.select(count, fit, weights[0]);
+  if (!holds_training_codes(model, scene, std::size_t(settings.cubature_runs))) {
+    if (log)
+      log("greedy projection: the model holds no codes of the scene's training runs at its output times, so its " +
+          std::to_string(weights.size()) + " trial sets cannot be rolled out against them: kept the first");
+    return selector.select(count, fit, weights[0]);
+  }
   std::vector<CubatureFit> sets;
   std::vector<double> errors;
   std::string line = "greedy projection: " + std::to_string(weights.size()) +

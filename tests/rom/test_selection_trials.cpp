@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
 #include <limits>
 #include <string>
 #include <vector>
@@ -62,6 +63,16 @@ TEST_F(RolloutBatchApi, TrialSetsKeepTheSetWhoseTrainingRolloutsStayClosest) {
   EXPECT_EQ(impl::tried_projection_set(model, scene, stopping, selector, true, {}).samples, sets[0].samples);
   // One weight: its set, with no rollouts.
   EXPECT_EQ(impl::tried_projection_set(model, scene, alone, selector, true, {}).samples, at_zero.samples);
+  // A scene of twice the output times: the model holds no codes at half of them, so no rollout is scored and the
+  // first set is kept, with a line saying why.
+  const std::string finer = (dir_ / "finer_outputs.toml").string();
+  std::ofstream(finer) << pushed_block_scene("pushed_block", 0.04, 8, 0.4, {0.5, 1.0, 1.5}, 1);
+  lines.clear();
+  const CubatureFit first = impl::tried_projection_set(model, load_scene(finer), s, selector, true,
+                                                       [&](const std::string& l) { lines.push_back(l); });
+  EXPECT_EQ(first.samples, sets[0].samples);
+  ASSERT_EQ(lines.size(), 1u);
+  EXPECT_NE(lines[0].find("kept the first"), std::string::npos) << lines[0];
 }
 
 }  // namespace

@@ -17,7 +17,8 @@ double training_rollout_error(const Model& model, const Scene& scene, const RomS
                               const CubatureFit& fit);
 
 // The greedy projection's set of settings.samples: selector's set at each of settings.selection_sensitivities, and of
-// several the one with the lowest training_rollout_error (the first of equals). log receives one line on the trials.
+// several the one with the lowest training_rollout_error (the first of equals; the first where the model holds no
+// codes of the scene's training runs at its output times). log receives one line on the trials.
 CubatureFit tried_projection_set(const Model& model, const Scene& scene, const RomSettings& settings,
                                  const ProjectionSelector& selector, bool fit,
                                  const std::function<void(const std::string&)>& log);
