@@ -209,7 +209,6 @@ class SampleSet {
         A_(set.T * std::size_t(set.r * set.r), 0.0),
         b_(set.T * std::size_t(set.r), 0.0) {}
   const std::vector<std::size_t>& chosen() const { return chosen_; }
-  double error() const { return error_; }
   const std::vector<double>& normal_matrices() const { return A_; }
   const std::vector<double>& right_hand_sides() const { return b_; }
   // Greedy: adds the candidate that lowers the error most, count times (or until none is left).
