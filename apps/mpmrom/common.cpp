@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdarg>
 #include <cstdio>
 #include <iostream>
 #include <stdexcept>
@@ -44,8 +45,19 @@ void report_progress(const SimulationProgress& p, bool quiet) {
   if (!every_progress_line() && p.frame % tenth != 0 && p.frame != p.num_frames) return;
   const double rate = p.seconds > 0 ? double(p.steps) * double(p.num_particles) / p.seconds : 0;
   const double left = p.frame > 0 ? p.seconds * (p.num_frames - p.frame) / p.frame : 0;
-  std::fprintf(stderr, "  frame %d/%d  t = %.4f s  %ld steps  %.3g particle-steps/s  %.1f s left\n", p.frame,
-               p.num_frames, p.time, p.steps, rate, left);
+  print_stderr("  frame %d/%d  t = %.4f s  %ld steps  %.3g particle-steps/s  %.1f s left\n", p.frame, p.num_frames,
+               p.time, p.steps, rate, left);
+}
+
+void print_stderr(const char* format, ...) {
+  std::va_list args, measure;
+  va_start(args, format);
+  va_copy(measure, args);
+  std::string text(std::size_t(std::max(0, std::vsnprintf(nullptr, 0, format, measure))), '\0');
+  va_end(measure);
+  std::vsnprintf(text.data(), text.size() + 1, format, args);
+  va_end(args);
+  std::cerr << text;
 }
 
 std::string duration_string(double seconds) {
@@ -63,12 +75,12 @@ void report_training(const TrainingProgress& p, bool quiet) {
   if (quiet) return;
   const int twentieth = std::max(1, p.epochs / 20);
   if (!every_progress_line() && !p.validated && p.epoch % twentieth != 0 && p.epoch != p.epochs) return;
-  std::fprintf(stderr, "  epoch %d/%d  loss %.3e (x %.2e F %.2e v %.2e", p.epoch, p.epochs, p.train.total,
-               p.train.position, p.train.gradient, p.train.velocity);
-  if (p.train.affine > 0) std::fprintf(stderr, " C %.2e", p.train.affine);
-  std::fprintf(stderr, ")");
-  if (p.validated) std::fprintf(stderr, "  validation %.3e", p.validation.total);
-  std::fprintf(stderr, "  lr %.1e  %.3g samples/s  %s left\n", p.learning_rate, p.samples_per_second,
+  print_stderr("  epoch %d/%d  loss %.3e (x %.2e F %.2e v %.2e", p.epoch, p.epochs, p.train.total, p.train.position,
+               p.train.gradient, p.train.velocity);
+  if (p.train.affine > 0) print_stderr(" C %.2e", p.train.affine);
+  print_stderr(")");
+  if (p.validated) print_stderr("  validation %.3e", p.validation.total);
+  print_stderr("  lr %.1e  %.3g samples/s  %s left\n", p.learning_rate, p.samples_per_second,
                duration_string(p.seconds_left).c_str());
 }
 
@@ -129,8 +141,8 @@ std::vector<RolloutCase> rollout_cases(const Scene& scene, const std::string& pa
 }
 
 void print_metrics(const char* label, const nlohmann::json& e) {
-  std::fprintf(stderr, "  %-8s position %.4f %%  displacement %.3f %%  velocity %.3f %%  F %.4f %%  strain %.3f %%\n",
-               label, 100 * e["position_error"].get<double>(), 100 * e["displacement_error"].get<double>(),
+  print_stderr("  %-8s position %.4f %%  displacement %.3f %%  velocity %.3f %%  F %.4f %%  strain %.3f %%\n", label,
+               100 * e["position_error"].get<double>(), 100 * e["displacement_error"].get<double>(),
                100 * e["velocity_error"].get<double>(), 100 * e["F_error"].get<double>(),
                100 * e["strain_error"].get<double>());
 }

@@ -33,6 +33,8 @@ void report_progress(const SimulationProgress& p, bool quiet);
 // One line per epoch on a terminal, about 20 per run otherwise (and every validated epoch).
 void report_training(const TrainingProgress& p, bool quiet);
 std::string duration_string(double seconds);
+// printf to std::cerr (not to the C stream): where std::cerr goes, the Python module's log included.
+void print_stderr(const char* format, ...) __attribute__((format(printf, 1, 2)));
 // "mpmrom: TEXT" on stderr unless quiet: the pipeline's and the model search's log.
 std::function<void(const std::string&)> log_lines(bool quiet);
 

@@ -105,13 +105,13 @@ void report_outcomes(const mpmrom::RomResult& result, bool quiet, const std::str
   }
   if (quiet) return;
   const OutcomeTotals totals = outcome_totals(result);
-  std::fprintf(stderr,
-               "mpmrom rollout: wrote %s: %zu rollouts x %ld steps in %.3f s (%.3g s per step, %.3g "
-               "rollout-steps/s); largest normal-equation condition estimate %.3g, %ld regularised steps, "
-               "%ld failed inversions\n",
-               rom_path.c_str(), result.outcomes.size(), result.steps, result.step_seconds,
-               timing["rom_step_seconds"].get<double>(), timing["rom_rollout_steps_per_s"].get<double>(),
-               totals.worst_condition, totals.regularized, totals.inversion_failures);
+  print_stderr(
+      "mpmrom rollout: wrote %s: %zu rollouts x %ld steps in %.3f s (%.3g s per step, %.3g "
+      "rollout-steps/s); largest normal-equation condition estimate %.3g, %ld regularised steps, "
+      "%ld failed inversions\n",
+      rom_path.c_str(), result.outcomes.size(), result.steps, result.step_seconds,
+      timing["rom_step_seconds"].get<double>(), timing["rom_rollout_steps_per_s"].get<double>(), totals.worst_condition,
+      totals.regularized, totals.inversion_failures);
 }
 
 // Progress lines of a batch: every frame, or five a run (set_verbosity).
@@ -120,8 +120,8 @@ std::function<void(const mpmrom::RomProgress&)> rollout_progress(bool quiet, std
     if (quiet || (!every_progress_line() && p.frame % std::max(1, p.frames / 5) != 0)) return;
     const double rate = p.seconds > 0 ? double(p.steps) * double(rollouts) / p.seconds : 0;
     const double left = p.frame > 0 ? p.seconds * (p.frames - p.frame) / p.frame : 0;
-    std::fprintf(stderr, "  frame %d/%d  t = %.4f s  %ld steps  %.3g rollout-steps/s  %s left\n", p.frame, p.frames,
-                 p.time, p.steps, rate, duration_string(left).c_str());
+    print_stderr("  frame %d/%d  t = %.4f s  %ld steps  %.3g rollout-steps/s  %s left\n", p.frame, p.frames, p.time,
+                 p.steps, rate, duration_string(left).c_str());
   };
 }
 

@@ -31,8 +31,8 @@ int run(Options o, const Context& context) {
         c.cause.empty() ? "" : ": ", c.cause.substr(0, 90).c_str());
   });
   if (!quiet)
-    std::fprintf(stderr, "mpmrom stability: %zu cases; wrote %s/stability.md, stability.json and the charts\n",
-                 cases.size(), o.stability_settings.out_dir.c_str());
+    print_stderr("mpmrom stability: %zu cases; wrote %s/stability.md, stability.json and the charts\n", cases.size(),
+                 o.stability_settings.out_dir.c_str());
   return 0;
 }
 

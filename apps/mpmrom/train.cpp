@@ -99,13 +99,12 @@ int train(const TrainOptions& o, const Context& context) {
     for (const char* split : {"train", "validation_points", "test"}) {
       if (!model.errors.contains(split)) continue;
       const auto& e = model.errors[split];
-      std::fprintf(stderr,
-                   "  %-18s position %.4f %%  displacement %.3f %%  velocity %.3f %%  F %.4f %%  strain %.3f %%\n",
+      print_stderr("  %-18s position %.4f %%  displacement %.3f %%  velocity %.3f %%  F %.4f %%  strain %.3f %%\n",
                    split, 100 * e["position_error"].get<double>(), 100 * e["displacement_error"].get<double>(),
                    100 * e["velocity_error"].get<double>(), 100 * e["F_error"].get<double>(),
                    100 * e["strain_error"].get<double>());
       if (e.contains("tangent_velocity_error"))  // the floor any reduced dynamics on the manifold meets
-        std::fprintf(stderr, "  %-18s velocity of the best rates on the tangent space %.3f %%\n", "",
+        print_stderr("  %-18s velocity of the best rates on the tangent space %.3f %%\n", "",
                      100 * e["tangent_velocity_error"].get<double>());
     }
   }

@@ -31,7 +31,8 @@ SampleSelection sample_selection_from_string(const std::string& name) {
   if (name == "greedy") return SampleSelection::Greedy;
   if (name == "cubature") return SampleSelection::Cubature;
   if (name == "greedy-projection") return SampleSelection::GreedyProjection;
-  throw std::invalid_argument("selection must be 'region', 'random', 'greedy' or 'cubature', not '" + name + "'");
+  throw std::invalid_argument(
+      "selection must be 'greedy-projection', 'greedy', 'cubature', 'region' or 'random', not '" + name + "'");
 }
 
 std::string to_string(SampleSelection selection) {

@@ -1,0 +1,139 @@
+// mpmrom's subcommands run in the Python process: the program's own parser and code (apps/mpmrom/program.hpp), its
+// stdout captured and returned, its stderr lines handed to a Python callable, its failures raised as exceptions
+// carrying the program's one line.
+#include <nanobind/nanobind.h>
+#include <nanobind/stl/string.h>
+#include <nanobind/stl/vector.h>
+
+#include <iostream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "bindings.hpp"
+#include "common.hpp"
+#include "core/parallel.hpp"
+#include "program.hpp"
+#include "session.hpp"
+
+namespace nb = nanobind;
+
+namespace mpmrom::python {
+namespace {
+
+// A stream buffer that hands each complete line to a Python callable (taking the GIL for the call). An exception
+// the callable raises is kept and raised once the command has finished.
+class LineSink : public std::streambuf {
+ public:
+  explicit LineSink(nb::object callback) : callback_(std::move(callback)) {}
+  // Hands over a last unterminated line, then raises what the callable raised.
+  void finish() {
+    flush_line();
+    if (error_) std::rethrow_exception(error_);
+  }
+
+ protected:
+  int overflow(int c) override {
+    if (c == traits_type::eof()) return traits_type::not_eof(c);
+    if (c == '\n')
+      flush_line();
+    else
+      line_.push_back(static_cast<char>(c));
+    return c;
+  }
+
+ private:
+  void flush_line() {
+    if (line_.empty()) return;
+    nb::gil_scoped_acquire gil;
+    if (!error_ && callback_.is_valid() && !callback_.is_none()) {
+      try {
+        callback_(line_);
+      } catch (...) {
+        error_ = std::current_exception();
+      }
+    }
+    line_.clear();
+  }
+
+  nb::object callback_;
+  std::string line_;
+  std::exception_ptr error_;
+};
+
+// Points a standard stream at another buffer for its lifetime.
+class Redirect {
+ public:
+  Redirect(std::ostream& stream, std::streambuf* buffer) : stream_(stream), previous_(stream.rdbuf(buffer)) {}
+  ~Redirect() { stream_.rdbuf(previous_); }
+  Redirect(const Redirect&) = delete;
+  Redirect& operator=(const Redirect&) = delete;
+
+ private:
+  std::ostream& stream_;
+  std::streambuf* previous_;
+};
+
+std::string first_line(const std::string& text) {
+  const auto end = text.find('\n');
+  return end == std::string::npos ? text : text.substr(0, end);
+}
+
+// Runs `mpmrom ARGS...`; returns what it printed on stdout (help text for --help).
+std::string run_command(const std::vector<std::string>& args, nb::object log) {
+  std::vector<std::string> storage{"mpmrom"};
+  storage.insert(storage.end(), args.begin(), args.end());
+  std::vector<char*> argv;
+  for (auto& arg : storage) argv.push_back(arg.data());
+  const int argc = static_cast<int>(argv.size());
+
+  cli::Program program;
+  std::ostringstream out;
+  try {
+    program.app.parse(argc, argv.data());
+  } catch (const CLI::ParseError& e) {
+    std::ostringstream err;
+    if (program.app.exit(e, out, err) == 0) return out.str();  // --help, --version
+    throw Error("mpmrom: error: " + first_line(err.str().empty() ? e.what() : err.str()));
+  }
+  if (program.threads != 0 || program.device >= 0)
+    throw Error("mpmrom: error: --threads and --device are set once per process, by mpmrom.initialize()");
+  require_kokkos();
+  const auto& chosen = program.chosen();
+  cli::set_verbosity(program.quiet     ? cli::Verbosity::quiet
+                     : program.verbose ? cli::Verbosity::verbose
+                                       : cli::Verbosity::normal);
+  LineSink sink(std::move(log));
+  int status = 0;
+  cli::Failure failure;
+  {
+    Redirect capture_out(std::cout, out.rdbuf());
+    Redirect capture_err(std::cerr, &sink);
+    nb::gil_scoped_release no_gil;  // the work runs without the interpreter; progress lines take it back
+    try {
+      status = chosen.run(cli::Context{program.quiet, parallel::Communicator::world(), argc, argv.data()});
+    } catch (...) {
+      failure = cli::describe_failure(std::current_exception());
+      status = failure.status;
+    }
+  }
+  sink.finish();
+  if (!failure.line.empty()) {
+    const auto line = first_line(failure.line);
+    if (failure.status == 3) throw SimulationFailed(line);
+    throw Error(line);
+  }
+  if (status != 0) throw Error("mpmrom: error: " + args.front() + " ended with status " + std::to_string(status));
+  return out.str();
+}
+
+}  // namespace
+
+void bind_commands(nb::module_& m) {
+  m.def("run_command", &run_command, nb::arg("args"), nb::arg("log").none() = nb::none(),
+        "Runs `mpmrom ARGS...` in this process and returns what it printed on stdout. Each line it prints on stderr "
+        "(progress, warnings) goes to log(line). Raises mpmrom.Error (mpmrom.SimulationFailed for a failed "
+        "simulation) with the program's one-line message.");
+}
+
+}  // namespace mpmrom::python

@@ -1,0 +1,67 @@
+"""The program's commands from Python: keyword arguments, outputs, progress and errors."""
+
+import json
+import logging
+
+import pytest
+
+import mpmrom
+from conftest import SEED_SCENE
+
+
+def test_import_names_the_build():
+    info = mpmrom.runtime_info()
+    assert info["precision"] == mpmrom.precision
+    assert info["version"] == mpmrom.__version__
+    assert info["backend"] in ("Serial", "OpenMP", "Cuda")
+    assert info["threads"] >= 1
+
+
+def test_simulate_writes_its_snapshot_and_reports_progress(tmp_path):
+    lines = []
+    out = mpmrom.simulate(SEED_SCENE, tmp_path / "run.h5", set={"push": 0.7}, progress=lines.append)
+    assert out.is_file() and (tmp_path / "run.xmf").is_file()
+    assert any("mpmrom simulate" in line for line in lines)
+
+
+def test_progress_goes_to_logging_without_a_callback(tmp_path, caplog):
+    with caplog.at_level(logging.INFO, logger="mpmrom"):
+        mpmrom.simulate(SEED_SCENE, tmp_path / "run.h5")
+    assert any("mpmrom simulate" in r.getMessage() for r in caplog.records)
+
+
+def test_info_json_matches_runtime_info():
+    assert json.loads(mpmrom.run("info", "--json"))["backend"] == mpmrom.runtime_info()["backend"]
+
+
+def test_help_lists_the_options():
+    assert "--lambda-grad" in mpmrom.help("train")
+
+
+def test_a_bad_scene_raises_the_programs_line(tmp_path):
+    scene = tmp_path / "bad.toml"
+    scene.write_text('name = "bad"\n[material]\nyoungs_modulus = "soft"\n')
+    with pytest.raises(mpmrom.Error, match=r"^mpmrom: error: .*bad.toml") as raised:
+        mpmrom.simulate(scene, tmp_path / "run.h5")
+    assert "\n" not in str(raised.value)
+    assert not (tmp_path / "run.h5").exists()
+
+
+def test_an_unknown_option_raises():
+    with pytest.raises(mpmrom.Error, match="--no-such-option"):
+        mpmrom.simulate(SEED_SCENE, "x.h5", no_such_option=3)
+
+
+def test_a_failing_progress_callback_raises_after_the_command(tmp_path):
+    def broken(line):
+        raise KeyError("callback")
+
+    with pytest.raises(KeyError):
+        mpmrom.simulate(SEED_SCENE, tmp_path / "run.h5", progress=broken)
+    assert (tmp_path / "run.h5").is_file()  # the command itself finished
+
+
+def test_evaluate_returns_the_errors(tiny, tmp_path):
+    rom = mpmrom.rollout(tiny["model"], tiny["scene"], tmp_path / "rom.h5")
+    errors = mpmrom.evaluate(rom, tiny["sweep"])
+    assert isinstance(errors, dict) and errors
