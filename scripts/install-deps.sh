@@ -9,7 +9,7 @@ exec 1>&2  # no result to print: everything below is progress
 packages=(
   build-essential cmake git pkg-config tar gzip
   libeigen3-dev libhdf5-dev hdf5-tools libcli11-dev libtomlplusplus-dev nlohmann-json3-dev
-  libgtest-dev libbenchmark-dev gnuplot-nox python3
+  libgtest-dev libbenchmark-dev gnuplot-nox python3 python3-dev python3-venv
   clang libclang-rt-dev clang-format clang-tidy libtrilinos-kokkos-dev
   libopenmpi-dev openmpi-bin
 )

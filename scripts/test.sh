@@ -4,9 +4,10 @@
 # adds test_mpi and test_mpi_cli, on two processes: docs/mpi.md); then the set-up scripts on a simulated fresh
 # machine (tests/fresh_machine.sh); the example consumer (scripts/example.sh: examples/rollout_consumer built against
 # the installed package, running three rollouts); and the sanitizer job (scripts/sanitize.sh: the suite under
-# ASan + UBSan, and the fuzzers' repeatable runs); and the sources' format (scripts/format.sh --check against
+# ASan + UBSan, and the fuzzers' repeatable runs); the Python package (scripts/python.sh: pip install, pytest); and
+# the sources' format (scripts/format.sh --check against
 # .clang-format). MPMROM_SETUP_ONLY=1 stops after the set-up and builds.
-# Prints ctest's results (and nothing else) on stdout; exits non-zero on any failure, naming the failed parts last.
+# Prints ctest's and pytest's results (and nothing else) on stdout; exits non-zero on any failure, naming the failed parts last.
 set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 variants=(double-mpi float)
@@ -24,6 +25,8 @@ for variant in "${variants[@]}"; do
 done
 echo "== the set-up scripts on a simulated fresh machine ==" >&2
 bash "$here/tests/fresh_machine.sh" >&2 || failed+=("fresh-machine set-up")
+echo "== the Python package: pip install, pytest, the design example ==" >&2
+"$here/scripts/python.sh" "$here/build/double-mpi/apps/mpmrom" || failed+=("python package")
 echo "== example consumer against the installed package ==" >&2
 "$here/scripts/example.sh" "$here/build/double-mpi" >&2 || failed+=("example consumer")
 "$here/scripts/sanitize.sh" >&2 || failed+=("sanitizers and fuzzers")
