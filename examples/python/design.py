@@ -8,7 +8,7 @@ full-order run. Prints one JSON object on stdout (the answer, its full-order err
 height, the loop's wall time with the reduced model and the same loop's estimated with the full-order model, from
 the check run's own time); progress goes to stderr. docs/python.md shows it on the poke cylinder.
 
-  python examples/python/design.py MODEL.h5 scenes/poke_cylinder.toml --target 1.15 6.0 11.0
+  python examples/python/design.py MODEL.h5 scenes/poke_cylinder.toml --target rho=1.15 theta=6 phi=11
 """
 
 import argparse
@@ -82,8 +82,8 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("model")
     parser.add_argument("scene")
-    parser.add_argument("--target", type=float, nargs="+", required=True,
-                        help="parameter values of the full-order run whose tip position is the target")
+    parser.add_argument("--target", nargs="+", required=True, metavar="NAME=VALUE",
+                        help="every parameter of the full-order run whose tip position is the target")
     parser.add_argument("--population", type=int, default=1024)
     parser.add_argument("--iterations", type=int, default=12)
     parser.add_argument("--samples", type=int, default=15, help="the reduced model's sample points")
@@ -92,14 +92,16 @@ def main():
 
     rom = mpmrom.ReducedModel(args.model, args.scene, samples=args.samples)
     names = rom.parameter_names
-    if len(args.target) != len(names):
-        parser.error(f"--target needs {len(names)} values ({', '.join(names)})")
+    given = dict(item.split("=", 1) for item in args.target if "=" in item)
+    if sorted(given) != sorted(names) or len(given) != len(args.target):
+        parser.error(f"--target needs NAME=VALUE for each of {', '.join(names)}")
+    target_values = [float(given[n]) for n in names]
     X = rom.reference_points
     height = float(X[:, 2].max() - X[:, 2].min())
     tip = tip_point(X)
     with tempfile.TemporaryDirectory() as work:
-        target, _ = full_order_tip(args.scene, names, args.target, tip, work)
-        log(f"target: tip at {np.round(target, 5).tolist()} m (full-order run at {args.target})")
+        target, _ = full_order_tip(args.scene, names, target_values, tip, work)
+        log(f"target: tip at {np.round(target, 5).tolist()} m (full-order run at {' '.join(args.target)})")
         start = time.perf_counter()
         found, rom_miss, rollouts = search(rom, design_bounds(args.scene, names), tip, target, args.population,
                                            args.iterations, args.seed)
@@ -108,7 +110,7 @@ def main():
     error = float(np.linalg.norm(reached - target))
     print(json.dumps({
         "parameter_names": names,
-        "target_parameters": args.target,
+        "target_parameters": target_values,
         "found_parameters": found.tolist(),
         "tip_reference": tip.tolist(),
         "target_tip": target.tolist(),

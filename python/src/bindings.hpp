@@ -2,6 +2,7 @@
 #pragma once
 
 #include <nanobind/nanobind.h>
+#include <nlohmann/json.hpp>
 
 #include <stdexcept>
 #include <string>
@@ -16,6 +17,9 @@ struct Error : std::runtime_error {
 struct SimulationFailed : Error {
   using Error::Error;
 };
+
+// A JSON value as the Python object json.loads makes of it.
+nanobind::object json_to_python(const nlohmann::json& value);
 
 void bind_session(nanobind::module_& m);   // module.cpp: initialize, runtime_info, version
 void bind_commands(nanobind::module_& m);  // commands.cpp: run_command

@@ -4,6 +4,7 @@
 #include <nanobind/stl/string.h>
 
 #include "bindings.hpp"
+#include "common.hpp"
 #include "mpmrom/mpmrom_config.hpp"
 #include "mpmrom/runtime.hpp"
 #include "session.hpp"
@@ -11,6 +12,10 @@
 namespace nb = nanobind;
 
 namespace mpmrom::python {
+
+nb::object json_to_python(const nlohmann::json& value) {
+  return nb::module_::import_("json").attr("loads")(value.dump());
+}
 
 void bind_session(nb::module_& m) {
   m.attr("__version__") = MPMROM_VERSION_STRING;
@@ -23,16 +28,7 @@ void bind_session(nb::module_& m) {
       "runtime_info",
       [] {
         require_kokkos();
-        const auto info = runtime_info();
-        nb::dict d;
-        d["backend"] = info.backend;
-        d["threads"] = info.threads;
-        d["device"] = info.device;
-        d["kokkos_version"] = info.kokkos_version;
-        d["precision"] = info.precision;
-        d["version"] = info.version;
-        d["git_commit"] = info.git_commit;
-        return d;
+        return json_to_python(cli::to_json(runtime_info()));  // the program's `info --json`
       },
       "What this process runs on: backend, threads, device, Kokkos version, precision, mpmrom version and commit.");
   // After every Python object that could still hold a batch has had its chance to go, batches free their Views.

@@ -108,8 +108,7 @@ void bind_settings(nb::module_& m) {
       .def_rw("energy_growth", &RomSettings::energy_growth)
       .def_rw("end_time", &RomSettings::end_time, "Horizon (s); 0: the scene's end time")
       .def("validate", &RomSettings::validate, "Raises ValueError naming a bad setting")
-      .def("to_dict",
-           [](const RomSettings& s) { return nb::module_::import_("json").attr("loads")(s.to_json().dump()); });
+      .def("to_dict", [](const RomSettings& s) { return json_to_python(s.to_json()); });
   enum_property(c, "method", &RomSettings::method, rom_method_from_string, to_string, "'point', 'node' or 'galerkin'");
   enum_property(c, "selection", &RomSettings::selection, sample_selection_from_string, to_string,
                 "'greedy-projection', 'greedy', 'cubature', 'region' or 'random'");

@@ -150,7 +150,7 @@ def test_a_batch_alive_at_exit_is_freed_before_kokkos(tiny):
 def test_the_design_example_finds_a_load(tiny):
     from conftest import ROOT
     done = subprocess.run([sys.executable, str(ROOT / "examples" / "python" / "design.py"), str(tiny["model"]),
-                           str(tiny["scene"]), "--target", "1.2", "--population", "32", "--iterations", "3",
+                           str(tiny["scene"]), "--target", "push=1.2", "--population", "32", "--iterations", "3",
                            "--samples", "0"], capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
     result = json.loads(done.stdout)
