@@ -7,6 +7,7 @@
 //   while (batch.advance()) { ... batch.decode(0, points) ... }
 #pragma once
 
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <vector>
@@ -20,6 +21,18 @@ namespace mpmrom {
 namespace impl {
 class BatchStepperBase;
 }
+
+// An array in the memory the batch's kernels run in (a GPU's in a CUDA build, the host's otherwise), described as
+// DLPack describes one, so that PyTorch, CuPy, JAX or NumPy can take it without a copy. A snapshot: advancing the
+// batch does not change it, and `owner` keeps its memory alive (release it before Kokkos is finalised).
+struct DeviceArray {
+  std::shared_ptr<const void> owner;
+  const void* data = nullptr;
+  std::vector<std::int64_t> shape;  // row-major, contiguous
+  int bits = 64;                    // a float of 32 or 64 bits: the build's precision (mpmrom_config.hpp)
+  int dlpack_device_type = 1;       // DLPack's DLDeviceType: 1 the host (kDLCPU), 2 a CUDA GPU (kDLCUDA)
+  int device_id = 0;
+};
 
 // Rollouts of one model sharing a scene's grid, material and output times; each has its own parameter values
 // (loads, boundary values). Works on Kokkos' default execution space; not thread-safe.
@@ -53,6 +66,12 @@ class RolloutBatch {
   bool running(int rollout) const;  // false once a detector has stopped it (docs/stability.md)
   // Rollout `rollout`'s fields now at reference points X (n, 3) row-major: x and v (n, 3), F (n, 3, 3).
   DecodedFields decode(int rollout, const std::vector<double>& X) const;
+  // Every rollout's fields now at the same reference points, in one pass of the network over the batch: x and v
+  // (size(), n, 3), F (size(), n, 3, 3). A stopped rollout's fields are those of its last state.
+  DecodedFields decode_all(const std::vector<double>& X) const;
+  // xhat and xhatdot now, (size(), r), left in the device's memory (no copy to the host).
+  DeviceArray latent_state_on_device() const;
+  DeviceArray latent_rate_on_device() const;
 
  private:
   friend class ReducedModel;

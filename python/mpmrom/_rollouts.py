@@ -13,7 +13,8 @@ PathLike = Union[str, "os.PathLike[str]"]
 
 
 class DecodedFields(NamedTuple):
-    """A rollout's fields at n reference points: positions x (n, 3), velocities v (n, 3), gradients F (n, 3, 3)."""
+    """Fields at n reference points: positions x (n, 3), velocities v (n, 3), gradients F (n, 3, 3); from
+    `RolloutBatch.decode_all` each with a leading axis of rollouts."""
 
     x: np.ndarray
     v: np.ndarray
@@ -103,13 +104,15 @@ class RolloutBatch:
             pass
         return self
 
-    def latent_state(self) -> np.ndarray:
-        """xhat now, (size, r)."""
-        return self._core.latent_state()
+    def latent_state(self, device: bool = False) -> Any:
+        """xhat now, (size, r): a float64 NumPy array, or with device=True a copy left in the memory the batch runs
+        in (the GPU's in a CUDA build), in the build's precision, for `torch.from_dlpack`, `cupy.from_dlpack` or
+        `np.from_dlpack` (on the host)."""
+        return self._core.latent_state_on_device() if device else self._core.latent_state()
 
-    def latent_rate(self) -> np.ndarray:
-        """xhatdot now, (size, r)."""
-        return self._core.latent_rate()
+    def latent_rate(self, device: bool = False) -> Any:
+        """xhatdot now, (size, r); device=True as in `latent_state`."""
+        return self._core.latent_rate_on_device() if device else self._core.latent_rate()
 
     def outcomes(self) -> list[_core.Outcome]:
         """Each rollout's flags, stop time and message, and a warning for parameters outside the training range."""
@@ -125,10 +128,14 @@ class RolloutBatch:
             raise IndexError(f"rollout {rollout} of {self._core.size}")
         return DecodedFields(*self._core.decode(rollout, _float_rows(points, 3, "points")))
 
+    def decode_all(self, points: Any) -> DecodedFields:
+        """Every rollout's fields now at the same reference points (n, 3), in one pass of the network: x and v
+        (size, n, 3), F (size, n, 3, 3). A stopped rollout's fields are those of its last state."""
+        return DecodedFields(*self._core.decode_all(_float_rows(points, 3, "points")))
+
     def positions(self, points: Any) -> np.ndarray:
         """Every rollout's positions now at reference points (n, 3): (size, n, 3)."""
-        X = _float_rows(points, 3, "points")
-        return np.stack([self._core.decode(i, X)[0] for i in range(self._core.size)])
+        return self.decode_all(points).x
 
     def free(self) -> None:
         """Releases the batch's memory now; later calls raise mpmrom.Error."""

@@ -79,6 +79,29 @@ std::string first_line(const std::string& text) {
   return end == std::string::npos ? text : text.substr(0, end);
 }
 
+// Every named option of `command` (positional arguments and --help left out).
+nb::list command_options(const std::string& command) {
+  cli::Program program;
+  CLI::App* sub = nullptr;
+  try {
+    sub = program.app.get_subcommand(command);
+  } catch (const CLI::OptionNotFound&) {
+    throw nb::value_error(("no command '" + command + "'").c_str());
+  }
+  nb::list options;
+  for (const CLI::Option* option : sub->get_options()) {
+    if (option->get_lnames().empty() || option->get_lnames().front() == "help") continue;
+    nb::dict entry;
+    entry["name"] = option->get_lnames().front();
+    entry["description"] = option->get_description();
+    entry["type"] = option->get_type_name();
+    entry["default"] = option->get_default_str();
+    entry["kind"] = option->get_expected_max() == 0 ? "flag" : option->get_items_expected_max() > 1 ? "list" : "value";
+    options.append(entry);
+  }
+  return options;
+}
+
 // Runs `mpmrom ARGS...`; returns what it printed on stdout (help text for --help).
 std::string run_command(const std::vector<std::string>& args, nb::object log) {
   std::vector<std::string> storage{"mpmrom"};
@@ -130,6 +153,9 @@ std::string run_command(const std::vector<std::string>& args, nb::object log) {
 }  // namespace
 
 void bind_commands(nb::module_& m) {
+  m.def("command_options", &command_options, nb::arg("command"),
+        "The options of a subcommand as its parser declares them: [{name, description, type, default, kind}], kind "
+        "'flag', 'value' or 'list' (the stub generator of python/stubgen_commands.py reads them).");
   m.def("run_command", &run_command, nb::arg("args"), nb::arg("log").none() = nb::none(),
         "Runs `mpmrom ARGS...` in this process and returns what it printed on stdout. Each line it prints on stderr "
         "(progress, warnings) goes to log(line). Raises mpmrom.Error (mpmrom.SimulationFailed for a failed "

@@ -1,6 +1,7 @@
 // The deployment API (include/mpmrom/rollout_batch.hpp) in Python: RomSettings, ReducedModel, RolloutBatch and each
 // rollout's Outcome. Arrays go out as NumPy arrays that own the vectors the library returned (moved, not copied), so
-// they outlive the batch; arrays come in as C-contiguous float64 (python/mpmrom/ converts and checks them).
+// they outlive the batch; arrays come in as C-contiguous float64 (python/mpmrom/ converts and checks them). Latent
+// states can also stay in the device's memory, handed out through DLPack.
 #include <nanobind/nanobind.h>
 #include <nanobind/ndarray.h>
 #include <nanobind/stl/string.h>
@@ -31,6 +32,31 @@ OutArray to_numpy(std::vector<double>&& values, std::initializer_list<std::size_
   return OutArray(owned->data(), shape.size(), shape.begin(), owner);
 }
 
+// Holds a DeviceArray's memory for the Python objects that use it; frees it at interpreter exit, before Kokkos is
+// finalised, even where a framework (a torch tensor, say) still refers to it then.
+class DeviceMemoryOwner {
+ public:
+  explicit DeviceMemoryOwner(std::shared_ptr<const void> memory) : memory_(std::move(memory)) {
+    register_device_owner(this, [this] { memory_.reset(); });
+  }
+  ~DeviceMemoryOwner() { unregister_device_owner(this); }
+  DeviceMemoryOwner(const DeviceMemoryOwner&) = delete;
+  DeviceMemoryOwner& operator=(const DeviceMemoryOwner&) = delete;
+
+ private:
+  std::shared_ptr<const void> memory_;
+};
+
+// A DLPack-capable array (nanobind.nb_ndarray: __dlpack__, __dlpack_device__) over the device array's memory.
+nb::ndarray<nb::array_api> to_dlpack(DeviceArray&& array) {
+  auto* owner = new DeviceMemoryOwner(std::move(array.owner));
+  nb::capsule capsule(owner, [](void* p) noexcept { delete static_cast<DeviceMemoryOwner*>(p); });
+  const std::vector<std::size_t> shape(array.shape.begin(), array.shape.end());
+  return nb::ndarray<nb::array_api>(const_cast<void*>(array.data), shape.size(), shape.data(), capsule, nullptr,
+                                    array.bits == 32 ? nb::dtype<float>() : nb::dtype<double>(),
+                                    array.dlpack_device_type, array.device_id);
+}
+
 // Rows of an (n, columns) array, each value finite; `what` names the array in the error.
 std::vector<std::vector<double>> rows_of(const InArray& a, std::size_t columns, const char* what) {
   if (a.shape(1) != columns)
@@ -47,6 +73,13 @@ std::vector<std::vector<double>> rows_of(const InArray& a, std::size_t columns, 
                 .c_str());
     }
   return rows;
+}
+
+// Reference points (n, 3), row-major.
+std::vector<double> points_of(const InArray& X) {
+  std::vector<double> flat;
+  for (const auto& p : rows_of(X, 3, "points")) flat.insert(flat.end(), p.begin(), p.end());
+  return flat;
 }
 
 // A RolloutBatch that frees its device memory at interpreter exit (session.hpp) or on free(), after which every
@@ -181,21 +214,41 @@ void bind_batch(nb::module_& m) {
             return to_numpy(batch.latent_rate(), {std::size_t(batch.size()), std::size_t(batch.latent_dim())});
           },
           "xhatdot now, (size, r)")
+      .def(
+          "latent_state_on_device", [](const Batch& b) { return to_dlpack(b.get().latent_state_on_device()); },
+          "xhat now, (size, r), in the device's memory and the build's precision, as a DLPack array")
+      .def(
+          "latent_rate_on_device", [](const Batch& b) { return to_dlpack(b.get().latent_rate_on_device()); },
+          "xhatdot now, (size, r), in the device's memory and the build's precision, as a DLPack array")
       .def("outcomes", [](const Batch& b) { return b.get().outcomes(); })
       .def(
           "running", [](const Batch& b, int rollout) { return b.get().running(rollout); }, nb::arg("rollout"))
       .def(
           "decode",
           [](const Batch& b, int rollout, const InArray& X) {
-            const auto points = rows_of(X, 3, "points");
-            std::vector<double> flat;
-            for (const auto& p : points) flat.insert(flat.end(), p.begin(), p.end());
+            const auto flat = points_of(X);
+            const std::size_t n = flat.size() / 3;
             auto fields = b.get().decode(rollout, flat);
-            const std::size_t n = points.size();
             return nb::make_tuple(to_numpy(std::move(fields.x), {n, 3}), to_numpy(std::move(fields.v), {n, 3}),
                                   to_numpy(std::move(fields.F), {n, 3, 3}));
           },
           nb::arg("rollout"), nb::arg("points"), "(x, v, F) of a rollout now at reference points (n, 3)")
+      .def(
+          "decode_all",
+          [](const Batch& b, const InArray& X) {
+            const auto flat = points_of(X);
+            const std::size_t n = flat.size() / 3;
+            auto& batch = b.get();
+            auto fields = [&] {
+              nb::gil_scoped_release no_gil;
+              return batch.decode_all(flat);
+            }();
+            const std::size_t size = std::size_t(batch.size());
+            return nb::make_tuple(to_numpy(std::move(fields.x), {size, n, 3}),
+                                  to_numpy(std::move(fields.v), {size, n, 3}),
+                                  to_numpy(std::move(fields.F), {size, n, 3, 3}));
+          },
+          nb::arg("points"), "(x, v, F) of every rollout now at reference points (n, 3): one network pass")
       .def("free", &Batch::free, "Frees the batch's memory now; every later call raises mpmrom.Error");
 }
 

@@ -1,7 +1,9 @@
 """The program's commands from Python: keyword arguments, outputs, progress and errors."""
 
+import ast
 import json
 import logging
+from pathlib import Path
 
 import pytest
 
@@ -36,6 +38,19 @@ def test_info_json_matches_runtime_info():
 
 def test_help_lists_the_options():
     assert "--lambda-grad" in mpmrom.help("train")
+
+
+@pytest.mark.parametrize("command", ["simulate", "sweep", "train", "rollout", "evaluate"])
+def test_the_stub_declares_every_option_as_a_keyword(command):
+    """The installed _commands.pyi (generated from the parser) gives each option a keyword an editor completes."""
+    stub = ast.parse((Path(mpmrom.__file__).parent / "_commands.pyi").read_text())
+    function = next(f for f in stub.body if isinstance(f, ast.FunctionDef) and f.name == command)
+    keywords = {a.arg for a in function.args.args + function.args.kwonlyargs}
+    options = {o["name"].replace("-", "_") for o in mpmrom._core.command_options(command)}
+    assert options - {"json"} <= keywords  # evaluate asks for JSON itself
+    assert function.args.kwarg is None and ast.get_docstring(function)
+    if command == "train":
+        assert "lambda_grad" in keywords and "Adam learning rate" in ast.get_docstring(function)
 
 
 def test_a_bad_scene_raises_the_programs_line(tmp_path):

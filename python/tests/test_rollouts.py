@@ -77,6 +77,48 @@ def test_decoded_fields_at_the_start_are_the_reference_body(tiny):
         np.testing.assert_array_equal(batch.positions(X)[1], x)
 
 
+def test_decoding_every_rollout_at_once_is_decoding_each(tiny):
+    rom = mpmrom.ReducedModel(tiny["model"], tiny["scene"])
+    X = rom.reference_points[::7]
+    with rom.batch(PUSHES) as batch:
+        batch.advance()
+        every = batch.decode_all(X)
+        assert every.x.shape == (3, len(X), 3) and every.F.shape == (3, len(X), 3, 3)
+        for rollout in range(3):
+            # Each (rollout, point) is the same network evaluation in either pass: equal to the last bit.
+            for field, alone in zip(every, batch.decode(rollout, X)):
+                np.testing.assert_array_equal(field[rollout], alone)
+
+
+def host_array(dlpack_array):
+    """A DLPack array's values as NumPy: directly on the host, through CuPy from a CUDA GPU (skipped without it)."""
+    kDLCPU, kDLCUDA = 1, 2
+    device_type, _ = dlpack_array.__dlpack_device__()
+    if device_type == kDLCPU:
+        return np.from_dlpack(dlpack_array)
+    assert device_type == kDLCUDA
+    cupy = pytest.importorskip("cupy")
+    return cupy.asnumpy(cupy.from_dlpack(dlpack_array))
+
+
+def test_latent_states_on_the_device_are_dlpack_arrays(tiny):
+    rom = mpmrom.ReducedModel(tiny["model"], tiny["scene"])
+    batch = rom.batch(PUSHES)
+    batch.advance()
+    state, rate = batch.latent_state(device=True), batch.latent_rate(device=True)
+    expected = batch.latent_state(), batch.latent_rate()
+    batch.advance()  # a snapshot: later steps leave it as it was
+    batch.free()
+    on_gpu = mpmrom.runtime_info()["backend"] == "Cuda"
+    assert state.__dlpack_device__()[0] == (2 if on_gpu else 1)  # kDLCUDA, kDLCPU
+    dtype = np.float32 if mpmrom.precision == "float" else np.float64
+    for on_device, host in zip((state, rate), expected):
+        array = host_array(on_device)
+        assert array.dtype == dtype and array.shape == (3, 2)
+        # The same values: the host copy is the device's widened to float64.
+        np.testing.assert_array_equal(array.astype(np.float64), host)
+
+
 def test_arrays_outlive_their_batch(tiny):
     rom = mpmrom.ReducedModel(tiny["model"], tiny["scene"])
     batch = rom.batch(PUSHES)
@@ -136,11 +178,13 @@ def test_a_model_for_another_scene_raises(tiny):
 
 
 def test_a_batch_alive_at_exit_is_freed_before_kokkos(tiny):
-    """A batch left alive to interpreter exit frees its Views before Kokkos stops: a clean exit, no warning."""
+    """A batch and a device array left alive to interpreter exit free their Views before Kokkos stops: a clean exit,
+    no warning."""
     code = ("import sys, mpmrom\n"
             "rom = mpmrom.ReducedModel(sys.argv[1], sys.argv[2])\n"
             "batch = rom.batch([[1.0], [1.2]])\n"
-            "batch.advance()\n")
+            "batch.advance()\n"
+            "state = batch.latent_state(device=True)\n")
     done = subprocess.run([sys.executable, "-c", code, str(tiny["model"]), str(tiny["scene"])],
                           capture_output=True, text=True)
     assert done.returncode == 0, done.stderr

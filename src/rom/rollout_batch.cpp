@@ -76,6 +76,17 @@ DecodedFields RolloutBatch::decode(int rollout, const std::vector<double>& X) co
   return mpmrom::decode(*model_, X, xhat, xhatdot);
 }
 
+DecodedFields RolloutBatch::decode_all(const std::vector<double>& X) const {
+  if (X.size() % 3 != 0)
+    throw std::invalid_argument("decode_all: points must be (n, 3), got " + std::to_string(X.size()) + " values");
+  std::vector<double> xhat, xhatdot;
+  stepper_->latent(xhat, xhatdot);
+  return mpmrom::decode(*model_, X, xhat, xhatdot);
+}
+
+DeviceArray RolloutBatch::latent_state_on_device() const { return stepper_->latent_on_device(false); }
+DeviceArray RolloutBatch::latent_rate_on_device() const { return stepper_->latent_on_device(true); }
+
 ReducedModel ReducedModel::load(const std::string& model_path, const std::string& scene_path, RomSettings settings) {
   settings.validate();
   ReducedModel rom;

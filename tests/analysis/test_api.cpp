@@ -4,13 +4,17 @@
 // some of its points keeps the whole body.
 #include <gtest/gtest.h>
 
+#include <Kokkos_Core.hpp>
+
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <filesystem>
 #include <fstream>
 #include <limits>
 #include <numeric>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "rollout_batch_fixture.hpp"
@@ -19,6 +23,10 @@
 
 namespace mpmrom::test {
 namespace {
+
+bool host_space_is_default() {
+  return Kokkos::SpaceAccessibility<Kokkos::HostSpace, Kokkos::DefaultExecutionSpace::memory_space>::accessible;
+}
 
 TEST_F(RolloutBatchApi, SteppingFrameByFrameReproducesTheBatchDriver) {
   const auto rom = ReducedModel::load(model_path(), scene_path(), settings());
@@ -66,6 +74,40 @@ TEST_F(RolloutBatchApi, SteppingFrameByFrameReproducesTheBatchDriver) {
   EXPECT_EQ(now.v, recorded.v);
   EXPECT_EQ(now.F, recorded.F);
   ASSERT_EQ(now.x.size(), X.size());
+}
+
+TEST_F(RolloutBatchApi, EveryRolloutDecodedAtOnceAndDeviceCopiesMatchTheHostCalls) {
+  const auto rom = ReducedModel::load(model_path(), scene_path(), settings());
+  auto batch = rom.batch({{0.5}, {1.25}, {1.5}});
+  batch.advance();
+  std::vector<double> X;
+  for (std::size_t i = 0; i < rom.reference_points().size(); i += 3 * 5)  // every fifth point
+    X.insert(X.end(), rom.reference_points().begin() + long(i), rom.reference_points().begin() + long(i) + 3);
+  const std::size_t n = X.size() / 3;
+  const DecodedFields every = batch.decode_all(X);
+  ASSERT_EQ(every.x.size(), 3 * n * 3);
+  ASSERT_EQ(every.F.size(), 3 * n * 9);
+  for (int b = 0; b < 3; ++b) {
+    // Each (rollout, point) is the same network evaluation in one pass or in three: equal to the last bit.
+    const DecodedFields alone = batch.decode(b, X);
+    EXPECT_TRUE(std::equal(alone.x.begin(), alone.x.end(), every.x.begin() + long(b * n * 3)));
+    EXPECT_TRUE(std::equal(alone.v.begin(), alone.v.end(), every.v.begin() + long(b * n * 3)));
+    EXPECT_TRUE(std::equal(alone.F.begin(), alone.F.end(), every.F.begin() + long(b * n * 9)));
+  }
+
+  const DeviceArray state = batch.latent_state_on_device(), rate = batch.latent_rate_on_device();
+  const auto host_state = batch.latent_state(), host_rate = batch.latent_rate();
+  batch.advance();  // a copy: later steps leave it as it was
+  for (const auto& [array, host] : {std::pair{&state, &host_state}, std::pair{&rate, &host_rate}}) {
+    ASSERT_EQ(array->shape, (std::vector<std::int64_t>{3, batch.latent_dim()}));
+    EXPECT_EQ(array->bits, int(8 * sizeof(real_t)));
+    EXPECT_EQ(array->dlpack_device_type, host_space_is_default() ? 1 : 2);
+    ASSERT_TRUE(array->owner);
+    using Device = Kokkos::View<const real_t*, Kokkos::DefaultExecutionSpace::memory_space, Kokkos::MemoryUnmanaged>;
+    const Device on_device(static_cast<const real_t*>(array->data), host->size());
+    const auto copied = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), on_device);
+    for (std::size_t i = 0; i < host->size(); ++i) EXPECT_EQ(double(copied(i)), (*host)[i]) << i;
+  }
 }
 
 TEST_F(RolloutBatchApi, ParametersOutsideTheTrainingRangeAreWarnedAbout) {
@@ -245,6 +287,7 @@ TEST_F(RolloutBatchApi, BadRequestsAreRefused) {
   const auto batch = rom.batch({{1.0}});
   EXPECT_THROW(batch.decode(1, rom.reference_points()), std::out_of_range);
   EXPECT_THROW(batch.decode(0, {0.0, 0.0}), std::invalid_argument);  // not (n, 3)
+  EXPECT_THROW(batch.decode_all({0.0, 0.0}), std::invalid_argument);
   // Greedy selection takes its samples from the model's ranking: a model without one is refused.
   RomSettings greedy = settings();
   greedy.selection = SampleSelection::Greedy;

@@ -8,6 +8,7 @@
 #include <utility>
 #include <vector>
 
+#include "mpmrom/rollout_batch.hpp"
 #include "rom/outcome.hpp"
 
 namespace mpmrom::impl {
@@ -55,6 +56,8 @@ class BatchStepperBase {
   virtual void latent(std::vector<double>& xhat, std::vector<double>& xhatdot) const = 0;
   // The same for one rollout (r values each): copies that rollout's row only.
   virtual void latent_of(int rollout, std::vector<double>& xhat, std::vector<double>& xhatdot) const = 0;
+  // A device copy of the latent state (rate: its rate), (rollouts, r).
+  virtual DeviceArray latent_on_device(bool rate) const = 0;
   // The rollout's detector flags as of the last output frame, kept on the host (no device copy).
   int flags(int rollout) const { return outcomes_[std::size_t(rollout)].flags; }
   // What has happened to each rollout so far: flags, stop time and message, counters, frames completed.

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "fom/fom.hpp"
+#include "rom/detail/device_array.hpp"
 #include "rom/detail/rollout_counters.hpp"
 #include "rom/detail/rollout_driver.hpp"
 #include "rom/detail/grid_strain.hpp"
@@ -221,6 +222,8 @@ class BatchStepper final : public BatchStepperBase {
     xhat = download(Kokkos::subview(xhat_, rollout, Kokkos::ALL));
     xhatdot = download(Kokkos::subview(xhatdot_, rollout, Kokkos::ALL));
   }
+
+  DeviceArray latent_on_device(bool rate) const override { return device_snapshot(rate ? xhatdot_ : xhat_); }
 
   ProjectionInputs last_projection_inputs() const override {
     return {download(sample_J_), download(sample_v_), download(xhatdot_next_),  // swapped: the rate before
