@@ -1,6 +1,7 @@
 #include "mpmrom/rollout_batch.hpp"
 
 #include <stdexcept>
+#include <string>
 
 #include "rom/detail/rollout_driver.hpp"
 #include "rom/kernels/projection.hpp"
@@ -11,6 +12,12 @@ namespace {
 void require_rollout(int rollout, int size) {
   if (rollout < 0 || rollout >= size)
     throw std::out_of_range("rollout " + std::to_string(rollout) + " of " + std::to_string(size));
+}
+
+void require_points(const std::vector<double>& X, const char* what) {
+  if (X.size() % 3 != 0)
+    throw std::invalid_argument(std::string(what) + ": points must be (n, 3), got " + std::to_string(X.size()) +
+                                " values");
 }
 
 }  // namespace
@@ -69,16 +76,14 @@ bool RolloutBatch::running(int rollout) const {
 
 DecodedFields RolloutBatch::decode(int rollout, const std::vector<double>& X) const {
   require_rollout(rollout, size());
-  if (X.size() % 3 != 0)
-    throw std::invalid_argument("decode: points must be (n, 3), got " + std::to_string(X.size()) + " values");
+  require_points(X, "decode");
   std::vector<double> xhat, xhatdot;
   stepper_->latent_of(rollout, xhat, xhatdot);
   return mpmrom::decode(*model_, X, xhat, xhatdot);
 }
 
 DecodedFields RolloutBatch::decode_all(const std::vector<double>& X) const {
-  if (X.size() % 3 != 0)
-    throw std::invalid_argument("decode_all: points must be (n, 3), got " + std::to_string(X.size()) + " values");
+  require_points(X, "decode_all");
   std::vector<double> xhat, xhatdot;
   stepper_->latent(xhat, xhatdot);
   return mpmrom::decode(*model_, X, xhat, xhatdot);
