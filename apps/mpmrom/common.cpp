@@ -39,7 +39,22 @@ void set_verbosity(Verbosity v) { verbosity = v; }
 
 bool every_progress_line() { return verbosity == Verbosity::verbose || isatty(STDERR_FILENO); }
 
+namespace {
+// A function-local static: the check a host (the Python module) installs for its commands.
+std::function<void()>& interruption_check() {
+  static std::function<void()> check;
+  return check;
+}
+}  // namespace
+
+void set_interruption_check(std::function<void()> check) { interruption_check() = std::move(check); }
+
+void check_interruption() {
+  if (interruption_check()) interruption_check()();
+}
+
 void report_progress(const SimulationProgress& p, bool quiet) {
+  check_interruption();
   if (quiet) return;
   const int tenth = std::max(1, p.num_frames / 10);
   if (!every_progress_line() && p.frame % tenth != 0 && p.frame != p.num_frames) return;
@@ -72,6 +87,7 @@ std::string duration_string(double seconds) {
 }
 
 void report_training(const TrainingProgress& p, bool quiet) {
+  check_interruption();
   if (quiet) return;
   const int twentieth = std::max(1, p.epochs / 20);
   if (!every_progress_line() && !p.validated && p.epoch % twentieth != 0 && p.epoch != p.epochs) return;

@@ -28,6 +28,13 @@ enum class Verbosity { quiet, normal, verbose };
 void set_verbosity(Verbosity verbosity);
 bool every_progress_line();
 
+// Where a command can stop early: each progress report (a frame of a simulation or a rollout batch, an epoch of
+// training) first calls the interruption check, which throws Interrupted to stop the command. The Python module
+// installs one that looks for Ctrl-C; the program installs none (SIGINT ends it).
+struct Interrupted {};
+void set_interruption_check(std::function<void()> check);
+void check_interruption();
+
 // One progress line per tenth of a run (every frame on a terminal), with the rate and the time left.
 void report_progress(const SimulationProgress& p, bool quiet);
 // One line per epoch on a terminal, about 20 per run otherwise (and every validated epoch).

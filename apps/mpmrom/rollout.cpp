@@ -117,6 +117,7 @@ void report_outcomes(const mpmrom::RomResult& result, bool quiet, const std::str
 // Progress lines of a batch: every frame, or five a run (set_verbosity).
 std::function<void(const mpmrom::RomProgress&)> rollout_progress(bool quiet, std::size_t rollouts) {
   return [quiet, rollouts](const mpmrom::RomProgress& p) {
+    check_interruption();
     if (quiet || (!every_progress_line() && p.frame % std::max(1, p.frames / 5) != 0)) return;
     const double rate = p.seconds > 0 ? double(p.steps) * double(rollouts) / p.seconds : 0;
     const double left = p.frame > 0 ? p.seconds * (p.frames - p.frame) / p.frame : 0;

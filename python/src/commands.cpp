@@ -26,6 +26,8 @@ namespace {
 class LineSink : public std::streambuf {
  public:
   explicit LineSink(nb::object callback) : callback_(std::move(callback)) {}
+  // Whether the callable raised KeyboardInterrupt: the command stops at its next progress point.
+  bool interrupted() const { return interrupted_; }
   // Hands over a last unterminated line, then raises what the callable raised.
   void finish() {
     flush_line();
@@ -49,6 +51,9 @@ class LineSink : public std::streambuf {
     if (!error_ && callback_.is_valid() && !callback_.is_none()) {
       try {
         callback_(line_);
+      } catch (const nb::python_error& e) {
+        interrupted_ = e.matches(PyExc_KeyboardInterrupt);  // Ctrl-C while the callback ran
+        error_ = std::current_exception();
       } catch (...) {
         error_ = std::current_exception();
       }
@@ -59,6 +64,34 @@ class LineSink : public std::streambuf {
   nb::object callback_;
   std::string line_;
   std::exception_ptr error_;
+  bool interrupted_ = false;
+};
+
+// Ctrl-C during a command: at each progress point the command takes the interpreter's lock to run Python's signal
+// handlers; one that raises (KeyboardInterrupt) stops the command, and run_command raises it once the command has
+// unwound (its outputs are closed as on any error: nothing half-written is left).
+class InterruptionCheck {
+ public:
+  explicit InterruptionCheck(const LineSink& sink) {
+    cli::set_interruption_check([this, &sink] {
+      if (sink.interrupted()) throw cli::Interrupted();
+      nb::gil_scoped_acquire gil;
+      if (PyErr_CheckSignals() == 0) return;
+      raised_ = std::make_exception_ptr(nb::python_error());
+      throw cli::Interrupted();
+    });
+  }
+  ~InterruptionCheck() { cli::set_interruption_check({}); }
+  InterruptionCheck(const InterruptionCheck&) = delete;
+  InterruptionCheck& operator=(const InterruptionCheck&) = delete;
+
+  // Raises what a signal handler raised, if one did (the interpreter's lock held).
+  void finish() const {
+    if (raised_) std::rethrow_exception(raised_);
+  }
+
+ private:
+  std::exception_ptr raised_;
 };
 
 // Points a standard stream at another buffer for its lifetime.
@@ -127,6 +160,7 @@ std::string run_command(const std::vector<std::string>& args, nb::object log) {
                      : program.verbose ? cli::Verbosity::verbose
                                        : cli::Verbosity::normal);
   LineSink sink(std::move(log));
+  InterruptionCheck interruption(sink);
   int status = 0;
   cli::Failure failure;
   {
@@ -135,11 +169,14 @@ std::string run_command(const std::vector<std::string>& args, nb::object log) {
     nb::gil_scoped_release no_gil;  // the work runs without the interpreter; progress lines take it back
     try {
       status = chosen.run(cli::Context{program.quiet, parallel::Communicator::world(), argc, argv.data()});
+    } catch (const cli::Interrupted&) {
+      status = -1;  // raised below: the signal handler's exception, or the callback's
     } catch (...) {
       failure = cli::describe_failure(std::current_exception());
       status = failure.status;
     }
   }
+  interruption.finish();
   sink.finish();
   if (!failure.line.empty()) {
     const auto line = first_line(failure.line);

@@ -3,6 +3,10 @@
 import ast
 import json
 import logging
+import os
+import signal
+import threading
+import time
 from pathlib import Path
 
 import pytest
@@ -80,3 +84,22 @@ def test_evaluate_returns_the_errors(tiny, tmp_path):
     rom = mpmrom.rollout(tiny["model"], tiny["scene"], tmp_path / "rom.h5")
     errors = mpmrom.evaluate(rom, tiny["sweep"])
     assert isinstance(errors, dict) and errors
+
+
+def test_ctrl_c_stops_a_command_at_its_next_progress_point(tiny, tmp_path):
+    """SIGINT while a long training runs (the lock released) raises KeyboardInterrupt within an epoch or so, and
+    leaves no model file behind."""
+    out = tmp_path / "model.h5"
+    timer = threading.Timer(0.5, os.kill, (os.getpid(), signal.SIGINT))
+    start = time.perf_counter()
+    timer.start()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            mpmrom.train(tiny["sweep"], out, latent=2, width=8, depth=3, epochs=1000000, progress=lambda line: None)
+    finally:
+        timer.cancel()
+    # A million epochs take many minutes; stopping at the next epoch takes well under the 60 s allowed here.
+    assert time.perf_counter() - start < 60
+    assert not out.exists()
+    # The process is fine afterwards: the next command runs.
+    assert json.loads(mpmrom.run("info", "--json"))["backend"]
