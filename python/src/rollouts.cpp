@@ -26,10 +26,10 @@ using InArray = nb::ndarray<const double, nb::ndim<2>, nb::c_contig, nb::device:
 using OutArray = nb::ndarray<nb::numpy, double>;
 
 // A NumPy array that owns `values` (moved into it), shaped `shape`.
-OutArray to_numpy(std::vector<double>&& values, std::initializer_list<std::size_t> shape) {
+OutArray to_numpy(std::vector<double>&& values, const std::vector<std::size_t>& shape) {
   auto* owned = new std::vector<double>(std::move(values));
   nb::capsule owner(owned, [](void* p) noexcept { delete static_cast<std::vector<double>*>(p); });
-  return OutArray(owned->data(), shape.size(), shape.begin(), owner);
+  return OutArray(owned->data(), shape.size(), shape.data(), owner);
 }
 
 // Holds a DeviceArray's memory for the Python objects that use it; frees it at interpreter exit, before Kokkos is
@@ -80,6 +80,17 @@ std::vector<double> points_of(const InArray& X) {
   std::vector<double> flat;
   for (const auto& p : rows_of(X, 3, "points")) flat.insert(flat.end(), p.begin(), p.end());
   return flat;
+}
+
+// Decoded fields as the tuple (x, v, F) of NumPy arrays, shaped (leading..., 3) and (leading..., 3, 3).
+nb::tuple fields_tuple(DecodedFields&& fields, std::vector<std::size_t> leading) {
+  auto shaped = [&leading](std::vector<double>&& values, std::initializer_list<std::size_t> trailing) {
+    std::vector<std::size_t> shape = leading;
+    shape.insert(shape.end(), trailing);
+    return to_numpy(std::move(values), shape);
+  };
+  return nb::make_tuple(shaped(std::move(fields.x), {3}), shaped(std::move(fields.v), {3}),
+                        shaped(std::move(fields.F), {3, 3}));
 }
 
 // A RolloutBatch that frees its device memory at interpreter exit (session.hpp) or on free(), after which every
@@ -228,9 +239,7 @@ void bind_batch(nb::module_& m) {
           [](const Batch& b, int rollout, const InArray& X) {
             const auto flat = points_of(X);
             const std::size_t n = flat.size() / 3;
-            auto fields = b.get().decode(rollout, flat);
-            return nb::make_tuple(to_numpy(std::move(fields.x), {n, 3}), to_numpy(std::move(fields.v), {n, 3}),
-                                  to_numpy(std::move(fields.F), {n, 3, 3}));
+            return fields_tuple(b.get().decode(rollout, flat), {n});
           },
           nb::arg("rollout"), nb::arg("points"), "(x, v, F) of a rollout now at reference points (n, 3)")
       .def(
@@ -243,10 +252,7 @@ void bind_batch(nb::module_& m) {
               nb::gil_scoped_release no_gil;
               return batch.decode_all(flat);
             }();
-            const std::size_t size = std::size_t(batch.size());
-            return nb::make_tuple(to_numpy(std::move(fields.x), {size, n, 3}),
-                                  to_numpy(std::move(fields.v), {size, n, 3}),
-                                  to_numpy(std::move(fields.F), {size, n, 3, 3}));
+            return fields_tuple(std::move(fields), {std::size_t(batch.size()), n});
           },
           nb::arg("points"), "(x, v, F) of every rollout now at reference points (n, 3): one network pass")
       .def("free", &Batch::free, "Frees the batch's memory now; every later call raises mpmrom.Error");
