@@ -146,13 +146,17 @@ class ReducedModel:
     """A trained model (`mpmrom train`) on its scene, ready to run batches of reduced rollouts.
 
     Settings are `mpmrom rollout`'s options as keywords (`samples=30`, `method="node"`, `end_time=0.5`; see
-    `mpmrom.RomSettings`), or a whole `settings=RomSettings(...)`. Loading selects the sample points, which for a
+    `mpmrom.RomSettings`), starting, as the program does, from the measured defaults of the method asked for
+    (`RomSettings.defaults`), or a whole `settings=RomSettings(...)`. Loading selects the sample points, which for a
     sample count the model does not store takes a fit over the training design (docs/rom.md "Sample selection").
     """
 
     def __init__(self, model: PathLike, scene: PathLike, settings: Optional[_core.RomSettings] = None,
                  **options: Any):
-        chosen = settings if settings is not None else _core.RomSettings()
+        if settings is not None:
+            chosen = settings
+        else:
+            chosen = _core.RomSettings.defaults(options.get("method", "point"))
         for name, value in options.items():
             if name.startswith("_") or not hasattr(chosen, name):
                 raise TypeError(f"ReducedModel: no setting '{name}' (see mpmrom.RomSettings)")

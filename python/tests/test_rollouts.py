@@ -144,6 +144,9 @@ def test_settings_are_the_rollout_options(tiny):
     assert rom.settings.samples == 0 and rom.settings.projection == "position"
     assert len(rom.samples) == len(rom.reference_points)
     assert mpmrom.RomSettings.defaults("galerkin").to_dict()["method"] == "galerkin"
+    # A method keyword starts from that method's defaults, as `mpmrom rollout --method galerkin` does.
+    galerkin = mpmrom.ReducedModel(tiny["model"], tiny["scene"], method="galerkin", samples=8).settings
+    assert galerkin.to_dict() == {**mpmrom.RomSettings.defaults("galerkin").to_dict(), "samples": 8}
 
 
 @pytest.mark.parametrize("values, error, message", [
@@ -191,11 +194,12 @@ def test_a_batch_alive_at_exit_is_freed_before_kokkos(tiny):
     assert "leak" not in done.stderr and "Kokkos" not in done.stderr, done.stderr
 
 
-def test_the_design_example_finds_a_load(tiny):
+@pytest.mark.parametrize("method, samples", [("point", "0"), ("galerkin", "8")])
+def test_the_design_example_finds_a_load(tiny, method, samples):
     from conftest import ROOT
     done = subprocess.run([sys.executable, str(ROOT / "examples" / "python" / "design.py"), str(tiny["model"]),
                            str(tiny["scene"]), "--target", "push=1.2", "--population", "32", "--iterations", "3",
-                           "--samples", "0"], capture_output=True, text=True)
+                           "--method", method, "--samples", samples], capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
     result = json.loads(done.stdout)
     assert 0.5 <= result["found_parameters"][0] <= 1.5  # inside the design's range
@@ -203,4 +207,4 @@ def test_the_design_example_finds_a_load(tiny):
     # (the target's own displacement): the search moved toward the answer, not away from it.
     displacement = np.linalg.norm(np.array(result["target_tip"]) - result["tip_reference"])
     assert result["full_order_miss_m"] < displacement
-    assert result["loop_seconds_reduced"] > 0 and result["rollouts"] == 96
+    assert result["loop_seconds_reduced"] > 0 and result["rollouts"] == 96 and result["method"] == method
