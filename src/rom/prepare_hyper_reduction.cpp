@@ -42,7 +42,7 @@ bool same_projection_step(const RomSettings& a, const RomSettings& b, const Scen
 // The model's stored greedy projection set, when it is the one settings ask for: its count, fitted to the same step
 // (a set fitted at one time step can be a poor one at another: docs/results/rom/README.md).
 bool stored_set_applies(const Model& model, const Scene& scene, const RomSettings& settings) {
-  return settings.selection == SampleSelection::GreedyProjection &&
+  return settings.selection == SampleSelection::GreedyProjection && settings.method == stored_set_settings().method &&
          settings.snapshot_source == SnapshotSource::Reduced && settings.samples > 0 &&
          model.projection_samples.size() == std::size_t(settings.samples) &&
          model.projection_sensitivities == settings.selection_sensitivities &&

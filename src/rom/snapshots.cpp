@@ -67,16 +67,16 @@ std::vector<RolloutCase> training_cases(const Scene& scene, std::size_t max_roll
 }
 
 // A stepper of the method's snapshots over the cases, sampling `points` (every point, or the candidates of a large
-// body): the Galerkin step fits its own quantities (mass matrix, momentum, reduced force), the grid methods
-// Algorithm 1's (mass matrix, the sub-step's velocity increment). Its node sets cover the motion of the training
-// codes listed (empty: every code).
+// body): the Galerkin step fits its own quantities (mass matrix, momentum, reduced force), the grid methods the mass
+// matrix and the sub-step's velocity increment of their own all-point step (Algorithm 2's quadrature transfers
+// differ from Algorithm 1's particles'). Its node sets cover the motion of the training codes listed (empty: every
+// code).
 std::unique_ptr<impl::BatchStepperBase> snapshot_stepper(const Model& model, const std::string& scene_path,
                                                          const Scene& scene, const RomSettings& settings,
                                                          const std::vector<RolloutCase>& cases,
                                                          const std::vector<int>& points,
                                                          const std::vector<int>& codes = {}) {
   RomSettings sampled = settings;
-  sampled.method = settings.method == RomMethod::Galerkin ? RomMethod::Galerkin : RomMethod::MaterialPoint;
   sampled.samples = points.size() == model.num_points() ? 0 : int(points.size());
   sampled.weighting = SampleWeighting::Mass;
   sampled.end_time = 0;  // the training runs' horizon, whatever the rollouts' own (--end-time)

@@ -13,6 +13,7 @@
 #include <fstream>
 #include <limits>
 #include <numeric>
+#include <memory>
 #include <string>
 #include <utility>
 #include <vector>
@@ -183,7 +184,8 @@ TEST_F(RolloutBatchApi, TrainingAtSomePointsKeepsTheWholeBody) {
 // The default hyper-reduction: the set `mpmrom train --scene` stores is the greedy projection selection with fitted
 // weights (the same deterministic computation), a rollout of that count uses it as stored (its weights, or the
 // masses with --weights mass), and another count, another list of trial sets, or a model without a stored set, is
-// fitted at set-up (with one trial set, the greedy projection selection; the trials are tested in tests/rom).
+// fitted at set-up (with one trial set, the greedy projection selection; the trials are tested in tests/rom), as is
+// Algorithm 2's set, on its own step.
 TEST_F(RolloutBatchApi, StoredProjectionSetIsTheDefaultHyperReduction) {
   const Model model = load_model(model_path()), unranked = load_model(unranked_model_path());
   const Scene scene = load_scene(scene_path());
@@ -237,6 +239,21 @@ TEST_F(RolloutBatchApi, StoredProjectionSetIsTheDefaultHyperReduction) {
   s.selection_sensitivities = settings().selection_sensitivities;
   EXPECT_EQ(prepare_hyper_reduction(model, scene, s, nullptr, {}, count_asks).samples, stored.samples);
   EXPECT_EQ(asked, 2);  // the stored set: no snapshots asked for
+  // The stored set is Algorithm 1's: Algorithm 2 asks for snapshots of its own step, also with every other setting
+  // the stored set was fitted with.
+  RomSettings node = s;
+  node.method = RomMethod::SampleNode;
+  RomMethod snapshots_of = RomMethod::MaterialPoint;
+  std::unique_ptr<ProjectionSelector> own;
+  const auto node_asks = [&](const RomSettings& fitted) -> const ProjectionSelector& {
+    snapshots_of = fitted.method;
+    count_asks(fitted);
+    own = std::make_unique<ProjectionSelector>(model, cubature_snapshots(scene, fitted, nullptr));
+    return *own;
+  };
+  prepare_hyper_reduction(model, scene, node, nullptr, {}, node_asks);
+  EXPECT_EQ(asked, 3);
+  EXPECT_EQ(snapshots_of, RomMethod::SampleNode);
 }
 
 // `mpmrom evaluate` against a fresh sweep of new parameter points, all of them marked test: every rollout finds its

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <numeric>
@@ -119,6 +120,38 @@ TEST_F(RomLargeBodies, TrainingStatesAreTheRunsTimesTheFramesAsked) {
   EXPECT_EQ(count(8, 64), (std::vector<int>{inner, inner}));  // the scene's 2 training runs, each inner frame once
   settings.cubature_frames = 0;
   EXPECT_THROW(settings.validate(), std::invalid_argument);
+}
+
+// The greedy projection fits the rollout's own all-point step: from the same training state, Algorithm 2's
+// snapshot holds its quadrature transfers' velocity increments, not Algorithm 1's particle transfers'. Both hand the
+// same state's grid motion to the same rows, so they differ, by more than rounding (1e-6 of their size: another
+// transfer, not another summation order), and by less than their size (the same motion, other quadrature).
+TEST_F(RomLargeBodies, EachGridMethodSnapshotsItsOwnStep) {
+  const Model model = RomLargeBodies::model();
+  const Scene scene = load_scene(scene_path());
+  const auto first_increments = [&](RomMethod method) {
+    RomSettings settings = rom_defaults(method);
+    settings.snapshot_source = SnapshotSource::States;
+    settings.cubature_runs = 1;
+    settings.cubature_frames = 1;
+    std::vector<double> increments;
+    impl::snapshot_stream(model, cubature_snapshots(scene, settings, nullptr))([&](const impl::PointSnapshot& s) {
+      if (increments.empty()) increments.assign(s.fields.at(0), s.fields.at(0) + 3 * s.rows(model.num_points()));
+    });
+    return increments;
+  };
+  const std::vector<double> point = first_increments(RomMethod::MaterialPoint);
+  const std::vector<double> node = first_increments(RomMethod::SampleNode);
+  ASSERT_EQ(point.size(), 3 * model.num_points());
+  ASSERT_EQ(node.size(), point.size());
+  double difference = 0, size = 0;
+  for (std::size_t i = 0; i < point.size(); ++i) {
+    difference += (node[i] - point[i]) * (node[i] - point[i]);
+    size += point[i] * point[i];
+  }
+  ASSERT_GT(size, 0);
+  EXPECT_GT(std::sqrt(difference / size), 1e-6);
+  EXPECT_LT(std::sqrt(difference / size), 1.0);
 }
 
 }  // namespace
