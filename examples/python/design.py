@@ -94,10 +94,8 @@ def main():
     parser.add_argument("--seed", type=int, default=1)
     args = parser.parse_args()
 
-    settings = mpmrom.RomSettings.defaults(args.method)
-    settings.samples, settings.cfl = args.samples, args.cfl
     start = time.perf_counter()
-    rom = mpmrom.ReducedModel(args.model, args.scene, settings)
+    rom = mpmrom.ReducedModel(args.model, args.scene, method=args.method, samples=args.samples, cfl=args.cfl)
     setup_seconds = time.perf_counter() - start
     names = rom.parameter_names
     given = dict(item.split("=", 1) for item in args.target if "=" in item)
