@@ -25,7 +25,6 @@ using kokkos_math::atan2;
 using kokkos_math::cbrt;
 using kokkos_math::cos;
 using kokkos_math::exp;
-using kokkos_math::expm1;
 using kokkos_math::fabs;
 using kokkos_math::floor;
 using kokkos_math::fmax;

@@ -12,7 +12,7 @@
 #include "core/math/cholesky.hpp"
 #include "manifold/detail/rate_stencil.hpp"
 #include "manifold/device_data.hpp"
-#include "manifold/nn/mlp.hpp"
+#include "manifold/nn/mlp_batch.hpp"
 #include "mpmrom/mpmrom_config.hpp"
 
 namespace mpmrom {

@@ -18,7 +18,7 @@
 #include "manifold/detail/training_host.hpp"
 #include "manifold/detail/training_state.hpp"
 #include "manifold/nn/adam.hpp"
-#include "manifold/nn/mlp.hpp"
+#include "manifold/nn/mlp_batch.hpp"
 #include "manifold/nn/mlp_train.hpp"
 #include "mpmrom/mpmrom_config.hpp"
 

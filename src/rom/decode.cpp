@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "manifold/device_data.hpp"
+#include "manifold/nn/mlp_batch.hpp"
 #include "mpmrom/rom.hpp"
 #include "rom/detail/decoder.hpp"
 

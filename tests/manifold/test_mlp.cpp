@@ -4,6 +4,7 @@
 // compares the float kernels with the double ones.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <initializer_list>
 #include <random>
@@ -12,7 +13,8 @@
 
 #include "backends.hpp"
 #include "random_network.hpp"
-#include "manifold/nn/mlp.hpp"
+#include "manifold/nn/mlp_batch.hpp"
+#include "manifold/nn/mlp_block.hpp"
 #include "manifold/nn/mlp_kinematics.hpp"
 #include "manifold/nn/mlp_team.hpp"
 #include "manifold/nn/mlp_train.hpp"
@@ -518,6 +520,46 @@ void check_split_minibatch_sums_to_whole() {
   ASSERT_GT(largest, 0);
   for (std::size_t i = 0; i < whole.grad.size(); ++i)
     EXPECT_NEAR(first.grad[i] + second.grad[i], whole.grad[i], 1e-12 * largest) << "parameter " << i;
+}
+
+// The CPU's block kernels (mlp_block.hpp) against the one-point kernels, lane by lane, on the poke model's shape (5
+// layers of 48, r = 5): 13 points at 13 codes, so that the second block repeats its last point in 3 lanes. The two
+// run the same sums in the same order and differ only where the compiler fuses a multiply-add (one rounding of a
+// term instead of two, at most eps |w h|): with |w| ~ 1.5 / sqrt(48) and O(1) activations, a layer's 48 terms carry
+// at most 48 eps of error and 5 layers, each of gain below 2, at most 5 x 48 x 2^5 eps, about 8000 eps, on outputs
+// of order one (the standardisation scales them down further).
+TEST(MlpBlock, BlockKernelsMatchOnePointKernels) {
+  const int r = 5, P = 13;
+  const HostNetwork net = random_network(r, 48, 5, 0, 21);
+  const auto d = to_device<double, Kokkos::HostSpace>(net);
+  const std::vector<double> X = random_values(P * 3, -0.3, 0.3, 22), codes = random_values(P * r, -1, 1, 23);
+  const double tol = 8000 * epsilon_of<double>();
+  constexpr int Lanes = nn::host_block_lanes;
+  for (int first = 0; first < P; first += Lanes) {
+    nn::PointBlock<Lanes, double> points;
+    for (int lane = 0; lane < Lanes; ++lane) {
+      const int p = std::min(first + lane, P - 1);
+      for (int k = 0; k < 3; ++k) points.X[lane][k] = X[3 * p + k];
+      points.xhat[lane] = &codes[std::size_t(r * p)];
+    }
+    double g[Lanes][3], g_only[Lanes][3], F[Lanes][3][3], J[Lanes][3 * 5];
+    double* Jp[Lanes];
+    for (int lane = 0; lane < Lanes; ++lane) Jp[lane] = J[lane];
+    nn::BlockMlpForwardJacobian<Lanes, 64>(d.mlp, points, g, F, Jp);
+    nn::BlockMlpForward<Lanes, 64>(d.mlp, points, g_only);
+    for (int lane = 0; lane < Lanes; ++lane) {
+      double g1[3], F1[3][3], J1[3 * 5];
+      nn::SerialMlpForwardJacobian<64>(d.mlp, points.X[lane], points.xhat[lane], g1, F1, J1);
+      double g2[3];
+      nn::SerialMlpForward<64>(d.mlp, points.X[lane], points.xhat[lane], g2);
+      for (int k = 0; k < 3; ++k) {
+        EXPECT_NEAR(g[lane][k], g1[k], tol) << "block " << first << " lane " << lane;
+        EXPECT_NEAR(g_only[lane][k], g2[k], tol) << "block " << first << " lane " << lane;
+        for (int j = 0; j < 3; ++j) EXPECT_NEAR(F[lane][k][j], F1[k][j], tol * std::max(1.0, std::fabs(F1[k][j])));
+        for (int q = 0; q < r; ++q) EXPECT_NEAR(J[lane][k * r + q], J1[k * r + q], tol);
+      }
+    }
+  }
 }
 
 TYPED_TEST_SUITE(Mlp, EnabledBackends, BackendName);

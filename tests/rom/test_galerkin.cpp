@@ -416,6 +416,36 @@ TEST_F(GalerkinForce, TeamNodesWithTheNodeAverageMatchOneThreadANode) {
   expect_same(dg, team_dg, "node dg/dxhat at the test point");
 }
 
+// The grid strain's nodes in blocks of points (CPUs) give what one thread a node gives: 3 rollouts of 7 nodes, so
+// that blocks straddle rollouts and the last block is part padding; every other node's test point off the node
+// (the node average's second pass), and the second rollout stopped, whose items the launch must leave as they were.
+// The analytic map's block runs its one-point arithmetic a lane: equal to the bit.
+TEST_F(GalerkinForce, BlockNodesMatchOneThreadANode) {
+  using ExecutionSpace = Kokkos::DefaultHostExecutionSpace;
+  using MemorySpace = Kokkos::HostSpace;
+  const int B = 3, N = 7;
+  Kokkos::View<real_t**, Kokkos::LayoutRight, MemorySpace> nodes("nodes", N, 9);
+  rom::BatchMatrix<MemorySpace> xhat("xhat", B, r);
+  Kokkos::View<int*, MemorySpace> flags("flags", B);
+  fill_strain_node_rows(nodes, true);
+  for (int b = 0; b < B; ++b)
+    for (int q = 0; q < r; ++q) xhat(b, q) = real_t(xhat_host[q] * (1 + b));
+  flags(1) = rom::flag_not_finite;
+  rom::BatchVectors<MemorySpace> u("u", B, N, 3), block_u("block u", B, N, 3);
+  rom::BatchJacobians<MemorySpace> dg("dg", B, N, 3, r), block_dg("block dg", B, N, 3, r);
+  for (auto* view : {&u, &block_u}) Kokkos::deep_copy(*view, real_t(-7));  // what a stopped rollout keeps
+  for (auto* view : {&dg, &block_dg}) Kokkos::deep_copy(*view, real_t(-7));
+  const rom::GridStrainNodeKinematics<BendingManifold, MemorySpace> one{BendingManifold{}, nodes, xhat, u, dg, flags};
+  Kokkos::parallel_for(Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>>(0, B * N), one);
+  const long blocks = (B * N + nn::host_block_lanes - 1) / nn::host_block_lanes;
+  Kokkos::parallel_for(Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>>(0, blocks),
+                       rom::BlockGridStrainNodeKinematics<BendingManifold, MemorySpace>{
+                           {BendingManifold{}, nodes, xhat, block_u, block_dg, flags}});
+  expect_same(u, block_u, "node displacement");
+  expect_same(dg, block_dg, "node dg/dxhat at the test point");
+  EXPECT_EQ(block_u(1, 3, 0), real_t(-7)) << "a stopped rollout's node was written";
+}
+
 // The grid strain's nodes and the samples' kinematics in one team launch (TeamNodesAndSamples, small GPU batches)
 // give what their own launches give: teams of up to 4 items (as many threads as the backend gives a team) over 3
 // rollouts of 5 nodes and 6 samples, so that a team holds nodes and samples both and a rollout's items straddle teams.

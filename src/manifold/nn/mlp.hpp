@@ -1,5 +1,5 @@
-// The deformation map x = g(X; xhat) of the paper (equations 3-6) as a multi-layer perceptron, and its batched
-// evaluation with Jacobians for the reduced-order model.
+// The deformation map x = g(X; xhat) of the paper (equations 3-6) as a multi-layer perceptron, and its evaluation
+// with Jacobians at one point by one thread (mlp_batch.hpp runs it over points and codes).
 //
 // Network: z = [(X - input_mean) / input_scale, xhat] (3 + r inputs) -> depth affine layers, ELU after every one but
 // the last -> y (3 outputs), and g(X; xhat) = X + output_mean + output_scale * y: the network predicts the
@@ -139,89 +139,5 @@ template <class T, class MemorySpace>
 using PointsView = Kokkos::View<const T**, Kokkos::LayoutRight, MemorySpace>;  // (points, 3)
 template <class T, class MemorySpace>
 using CodesView = Kokkos::View<const T**, Kokkos::LayoutRight, MemorySpace>;  // (codes, r)
-
-namespace impl {
-
-template <int MaxWidth, class T, class MemorySpace>
-struct Evaluate {
-  Mlp<T, MemorySpace> mlp;
-  PointsView<T, MemorySpace> X;
-  CodesView<T, MemorySpace> codes;
-  Kokkos::View<T***, Kokkos::LayoutRight, MemorySpace> g;
-
-  KOKKOS_INLINE_FUNCTION void operator()(const long e) const {
-    const int num_points = int(X.extent(0));
-    const int b = int(e / num_points), p = int(e % num_points);
-    const T Xp[3] = {X(p, 0), X(p, 1), X(p, 2)};
-    T gp[3];
-    SerialMlpForward<MaxWidth>(mlp, Xp, &codes(b, 0), gp);
-    for (int k = 0; k < 3; ++k) g(b, p, k) = gp[k];
-  }
-};
-
-template <int MaxWidth, class T, class MemorySpace>
-struct EvaluateWithJacobians {
-  Mlp<T, MemorySpace> mlp;
-  PointsView<T, MemorySpace> X;
-  CodesView<T, MemorySpace> codes;
-  CodesView<T, MemorySpace> code_rates;  // may be empty: no velocity
-  Kokkos::View<T***, Kokkos::LayoutRight, MemorySpace> g;
-  Kokkos::View<T****, Kokkos::LayoutRight, MemorySpace> F;
-  Kokkos::View<T****, Kokkos::LayoutRight, MemorySpace> dgdxhat;
-  Kokkos::View<T***, Kokkos::LayoutRight, MemorySpace> velocity;
-
-  KOKKOS_INLINE_FUNCTION void operator()(const long e) const {
-    const int num_points = int(X.extent(0));
-    const int r = mlp.layout.latent_dim;
-    const int b = int(e / num_points), p = int(e % num_points);
-    const T Xp[3] = {X(p, 0), X(p, 1), X(p, 2)};
-    T gp[3], Fp[3][3];
-    T* J = &dgdxhat(b, p, 0, 0);
-    SerialMlpForwardJacobian<MaxWidth>(mlp, Xp, &codes(b, 0), gp, Fp, J);
-    for (int i = 0; i < 3; ++i) {
-      g(b, p, i) = gp[i];
-      for (int j = 0; j < 3; ++j) F(b, p, i, j) = Fp[i][j];
-    }
-    if (velocity.extent(0) == 0) return;
-    for (int i = 0; i < 3; ++i) {
-      T v = 0;
-      for (int q = 0; q < r; ++q) v += J[i * r + q] * code_rates(b, q);
-      velocity(b, p, i) = v;
-    }
-  }
-};
-
-}  // namespace impl
-
-// g(X_p; xhat_b) for every point p and code b: g (codes, points, 3).
-template <class ExecutionSpace, class T, class MemorySpace>
-void evaluate(const ExecutionSpace& space, const Mlp<T, MemorySpace>& mlp, const PointsView<T, MemorySpace>& X,
-              const CodesView<T, MemorySpace>& codes, const Kokkos::View<T***, Kokkos::LayoutRight, MemorySpace>& g) {
-  const long n = long(codes.extent(0)) * long(X.extent(0));
-  dispatch_max_width(mlp.layout.widest, [&](auto width) {
-    Kokkos::parallel_for("mpmrom::nn::evaluate",
-                         Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>>(space, 0, n),
-                         impl::Evaluate<decltype(width)::value, T, MemorySpace>{mlp, X, codes, g});
-  });
-}
-
-// For every point p and code b: g (codes, points, 3), F = dg/dX (codes, points, 3, 3), dg/dxhat (codes, points, 3, r)
-// and, when code_rates (codes, r) and velocity (codes, points, 3) are not empty, the velocity dg/dxhat * xhatdot.
-template <class ExecutionSpace, class T, class MemorySpace>
-void evaluate_with_jacobians(const ExecutionSpace& space, const Mlp<T, MemorySpace>& mlp,
-                             const PointsView<T, MemorySpace>& X, const CodesView<T, MemorySpace>& codes,
-                             const CodesView<T, MemorySpace>& code_rates,
-                             const Kokkos::View<T***, Kokkos::LayoutRight, MemorySpace>& g,
-                             const Kokkos::View<T****, Kokkos::LayoutRight, MemorySpace>& F,
-                             const Kokkos::View<T****, Kokkos::LayoutRight, MemorySpace>& dgdxhat,
-                             const Kokkos::View<T***, Kokkos::LayoutRight, MemorySpace>& velocity) {
-  const long n = long(codes.extent(0)) * long(X.extent(0));
-  dispatch_max_width(mlp.layout.widest, [&](auto width) {
-    Kokkos::parallel_for("mpmrom::nn::evaluate_with_jacobians",
-                         Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>>(space, 0, n),
-                         impl::EvaluateWithJacobians<decltype(width)::value, T, MemorySpace>{mlp, X, codes, code_rates,
-                                                                                             g, F, dgdxhat, velocity});
-  });
-}
 
 }  // namespace mpmrom::nn

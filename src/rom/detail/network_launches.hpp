@@ -1,9 +1,11 @@
 // The launches that run the network at the samples and at the grid strain's nodes, one thread an item or on teams
-// (team_launches.hpp says which), as free templates on the execution space. Private to the rom stage.
+// (team_launches.hpp says which), or on CPUs in blocks of points, as free templates on the execution space. Private to
+// the rom stage.
 #pragma once
 
 #include <Kokkos_Core.hpp>
 
+#include "core/math/simd.hpp"
 #include "manifold/device_data.hpp"
 #include "rom/detail/grid_strain.hpp"
 #include "rom/detail/team_launches.hpp"
@@ -35,10 +37,16 @@ void launch_strain_nodes(const ExecutionSpace& space, const Manifold& manifold,
                          const rom::SampleKinematics<Manifold, ExecutionSpace>& samples) {
   constexpr bool host_space = Kokkos::SpaceAccessibility<Kokkos::HostSpace, DeviceMemory>::accessible;
   const long items = long(xhat.extent(0)) * long(strain.nodes.extent(0));
+  const rom::GridStrainNodeKinematics<Manifold, DeviceMemory> one{manifold, strain.nodes, xhat,
+                                                                  strain.u, strain.dg,    flags};
+  if constexpr (host_space && math::host_lane_blocks) {
+    const long blocks = (items + nn::host_block_lanes - 1) / nn::host_block_lanes;
+    Kokkos::parallel_for("mpmrom::rom::grid_strain_nodes", LightRange<ExecutionSpace>(space, 0, blocks),
+                         rom::BlockGridStrainNodeKinematics<Manifold, DeviceMemory>{one});
+    return;
+  }
   if (host_space || one_thread_tangents<ExecutionSpace>(manifold, items)) {
-    Kokkos::parallel_for("mpmrom::rom::grid_strain_nodes", LightRange<ExecutionSpace>(space, 0, items),
-                         rom::GridStrainNodeKinematics<Manifold, DeviceMemory>{manifold, strain.nodes, xhat, strain.u,
-                                                                               strain.dg, flags});
+    Kokkos::parallel_for("mpmrom::rom::grid_strain_nodes", LightRange<ExecutionSpace>(space, 0, items), one);
     return;
   }
   const rom::TeamGridStrainNodeKinematics<Manifold, ExecutionSpace> nodes{

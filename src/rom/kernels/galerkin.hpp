@@ -61,6 +61,55 @@ struct GridStrainNodeKinematics {
   }
 };
 
+// GridStrainNodeKinematics on CPUs: a block of consecutive (rollout, node) items a thread, the network run across
+// the block's lanes (Manifold::block_position_and_tangent); the items of stopped rollouts are left as they were.
+template <class Manifold, class MemorySpace>
+struct BlockGridStrainNodeKinematics {
+  static constexpr int Lanes = nn::host_block_lanes;
+  GridStrainNodeKinematics<Manifold, MemorySpace> one;  // its views
+
+  KOKKOS_INLINE_FUNCTION void operator()(const long block) const {
+    const auto& nodes = one.nodes;
+    const int num_nodes = int(nodes.extent(0)), r = int(one.xhat.extent(1));
+    const long n = long(one.xhat.extent(0)) * num_nodes, first = block * Lanes;
+    const int count = int(n - first < Lanes ? n - first : Lanes);
+    nn::PointBlock<Lanes, real_t> points;
+    int b[Lanes], i[Lanes];
+    bool kept[Lanes], any_test = false;
+    real_t g[Lanes][3], discarded[Lanes][3 * max_latent_dim];
+    real_t* dg[Lanes];
+    for (int lane = 0; lane < Lanes; ++lane) {
+      const long e = first + (lane < count ? lane : count - 1);
+      b[lane] = int(e / num_nodes);
+      i[lane] = int(e % num_nodes);
+      kept[lane] = lane < count && !(one.flags(b[lane]) & fatal_flags);
+      for (int d = 0; d < 3; ++d) points.X[lane][d] = nodes(i[lane], d);
+      points.xhat[lane] = &one.xhat(b[lane], 0);
+      dg[lane] = kept[lane] ? &one.node_dg(b[lane], i[lane], 0, 0) : discarded[lane];
+    }
+    one.manifold.template block_position_and_tangent<Lanes>(points, g, dg);
+    for (int lane = 0; lane < Lanes; ++lane) {
+      const bool test = nodes(i[lane], 6) != points.X[lane][0] || nodes(i[lane], 7) != points.X[lane][1] ||
+                        nodes(i[lane], 8) != points.X[lane][2];
+      any_test = any_test || (kept[lane] && test);
+      for (int d = 0; d < 3; ++d) points.X[lane][d] = nodes(i[lane], 6 + d);
+      if (!test) dg[lane] = discarded[lane];  // the test function at Xbar, already in place
+    }
+    if (any_test) {
+      real_t unused[Lanes][3];
+      one.manifold.template block_position_and_tangent<Lanes>(points, unused, dg);
+    }
+    for (int lane = 0; lane < count; ++lane) {
+      if (!kept[lane]) continue;
+      for (int a = 0; a < 3; ++a) {
+        const real_t free = nodes(i[lane], 3 + a);
+        one.node_u(b[lane], i[lane], a) = free * (g[lane][a] - nodes(i[lane], a));
+        for (int k = 0; k < r; ++k) one.node_dg(b[lane], i[lane], a, k) *= free;
+      }
+    }
+  }
+};
+
 // GridStrainNodeKinematics on teams (GPUs, where one thread per node runs the network alone): a team per
 // shape.threads (rollout, node) items, one a team thread, its lanes sharing the network, as SampleKinematics.
 template <class Manifold, class ExecutionSpace>

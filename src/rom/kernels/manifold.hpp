@@ -19,6 +19,9 @@
 //        bool active, const real_t X[3], const real_t* xhat, nn::PointKinematics<real_t>& out /* g alone */,
 //        real_t* dgdxhat) const;                     // the same, g and dg/dxhat alone
 //   bool thread_tangent() const;                  // position_and_tangent one thread a point beats the team kernels
+// and, for CPUs, position_and_tangent over a block of points (nn::PointBlock; dgdxhat one 3 x r array a lane):
+//   template <int Lanes> KOKKOS_FUNCTION void block_position_and_tangent(const nn::PointBlock<Lanes, real_t>&,
+//        real_t (*g)[3], real_t* const* dgdxhat) const;   // TeamFromSerial's runs position_and_tangent a lane
 // MlpManifold adapts a trained network; tests plug in analytic maps, which get the team interface from
 // TeamFromSerial. Parallelism contract: value types; kinematics and position_and_gradient within one thread.
 #pragma once
@@ -26,6 +29,7 @@
 #include <cstddef>
 #include <type_traits>
 
+#include "manifold/nn/mlp_block.hpp"
 #include "manifold/nn/mlp_registers.hpp"
 #include "manifold/nn/mlp_team.hpp"
 #include "rom/kernels/team_shape.hpp"
@@ -60,6 +64,13 @@ struct TeamFromSerial {
     nn::PointKinematics<real_t> kin;
     static_cast<const Manifold&>(*this).kinematics(X, xhat, rest, kin, dgdxhat);
     for (int d = 0; d < 3; ++d) g[d] = kin.g[d];
+  }
+  template <int Lanes>
+  KOKKOS_INLINE_FUNCTION void block_position_and_tangent(const nn::PointBlock<Lanes, real_t>& points, real_t (*g)[3],
+                                                         real_t* const* dgdxhat) const {
+    for (int lane = 0; lane < Lanes; ++lane)
+      static_cast<const Manifold&>(*this).position_and_tangent(points.X[lane], points.xhat[lane], g[lane],
+                                                               dgdxhat[lane]);
   }
   int team_lanes() const { return 1; }
   bool thread_tangent() const { return false; }
@@ -121,6 +132,12 @@ struct MlpManifold {
     }
     real_t unused[3][3];
     nn::SerialMlpForwardJacobian<MaxWidth>(mlp, X, xhat, g, unused, dgdxhat);
+  }
+
+  template <int Lanes>
+  KOKKOS_INLINE_FUNCTION void block_position_and_tangent(const nn::PointBlock<Lanes, real_t>& points, real_t (*g)[3],
+                                                         real_t* const* dgdxhat) const {
+    nn::BlockMlpForwardJacobian<Lanes, MaxWidth>(mlp, points, g, static_cast<real_t(*)[3][3]>(nullptr), dgdxhat);
   }
 
   KOKKOS_INLINE_FUNCTION bool thread_tangent() const { return narrow.quads.extent(0) > 0; }
