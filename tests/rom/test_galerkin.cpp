@@ -12,6 +12,7 @@
 
 #include "rom/detail/grid_strain.hpp"
 #include "rom/kernels/galerkin.hpp"
+#include "rom/kernels/sources.hpp"
 
 namespace mpmrom::test {
 namespace {
@@ -416,11 +417,12 @@ TEST_F(GalerkinForce, TeamNodesWithTheNodeAverageMatchOneThreadANode) {
   expect_same(dg, team_dg, "node dg/dxhat at the test point");
 }
 
-// The grid strain's nodes in blocks of points (CPUs) give what one thread a node gives: 3 rollouts of 7 nodes, so
-// that blocks straddle rollouts and the last block is part padding; every other node's test point off the node
-// (the node average's second pass), and the second rollout stopped, whose items the launch must leave as they were.
-// The analytic map's block runs its one-point arithmetic a lane: equal to the bit.
-TEST_F(GalerkinForce, BlockNodesMatchOneThreadANode) {
+// The grid strain's nodes and the samples in blocks of points (CPUs) give what one thread an item gives: 3 rollouts
+// of 7 nodes (and of the fixture's samples), so that blocks straddle rollouts and the last block is part padding;
+// every other node's test point off the node (the node average's second pass), and the second rollout stopped, whose
+// nodes the launch must leave as they were. The analytic map's block runs its one-point arithmetic a lane: equal to
+// the bit.
+TEST_F(GalerkinForce, BlockLaunchesMatchOneThreadAnItem) {
   using ExecutionSpace = Kokkos::DefaultHostExecutionSpace;
   using MemorySpace = Kokkos::HostSpace;
   const int B = 3, N = 7;
@@ -444,6 +446,21 @@ TEST_F(GalerkinForce, BlockNodesMatchOneThreadANode) {
   expect_same(u, block_u, "node displacement");
   expect_same(dg, block_dg, "node dg/dxhat at the test point");
   EXPECT_EQ(block_u(1, 3, 0), real_t(-7)) << "a stopped rollout's node was written";
+
+  using Samples = rom::SampleKinematics<BendingManifold, ExecutionSpace>;
+  Kokkos::View<real_t**, Kokkos::LayoutRight, MemorySpace> Xv("X", S, 3);
+  for (int i = 0; i < S; ++i)
+    for (int d = 0; d < 3; ++d) Xv(i, d) = real_t(X[3 * i + d]);
+  rom::BatchVectors<MemorySpace> x("x", B, S, 3), block_x("block x", B, S, 3);
+  rom::BatchJacobians<MemorySpace> J("J", B, S, 3, r), block_J("block J", B, S, 3, r);
+  Kokkos::parallel_for(Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>>(0, B * S),
+                       Samples{BendingManifold{}, Xv, xhat, x, J, rom::TeamShape{}, rom::TeamScratch{}});
+  const long sample_blocks = (B * S + nn::host_block_lanes - 1) / nn::host_block_lanes;
+  Kokkos::parallel_for(Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>>(0, sample_blocks),
+                       rom::BlockSampleKinematics<BendingManifold, ExecutionSpace>{Samples{
+                           BendingManifold{}, Xv, xhat, block_x, block_J, rom::TeamShape{}, rom::TeamScratch{}}});
+  expect_same(x, block_x, "sample position");
+  expect_same(J, block_J, "sample dg/dxhat");
 }
 
 // The grid strain's nodes and the samples' kinematics in one team launch (TeamNodesAndSamples, small GPU batches)

@@ -22,6 +22,12 @@ void launch_sample_kinematics(const ExecutionSpace& space, const Manifold& manif
   const long items = long(xhat.extent(0)) * long(X.extent(0));
   const rom::SampleKinematics<Manifold, ExecutionSpace> samples{launch.manifold, X, xhat, positions, J, launch.shape,
                                                                 launch.scratch};
+  if constexpr (Kokkos::SpaceAccessibility<Kokkos::HostSpace, DeviceMemory>::accessible && math::host_lane_blocks) {
+    const long blocks = (items + nn::host_block_lanes - 1) / nn::host_block_lanes;
+    Kokkos::parallel_for("mpmrom::rom::sample_kinematics", LightRange<ExecutionSpace>(space, 0, blocks),
+                         rom::BlockSampleKinematics<Manifold, ExecutionSpace>{samples});
+    return;
+  }
   if (one_thread_tangents<ExecutionSpace>(manifold, items))
     Kokkos::parallel_for("mpmrom::rom::sample_kinematics", LightRange<ExecutionSpace>(space, 0, items), samples);
   else

@@ -360,4 +360,33 @@ struct SampleKinematics {
   }
 };
 
+// SampleKinematics on CPUs: a block of consecutive (rollout, sample) items a thread, the network run across the
+// block's lanes (Manifold::block_position_and_tangent); the lanes past the last item repeat it.
+template <class Manifold, class ExecutionSpace>
+struct BlockSampleKinematics {
+  static constexpr int Lanes = nn::host_block_lanes;
+  SampleKinematics<Manifold, ExecutionSpace> one;  // its views
+
+  KOKKOS_INLINE_FUNCTION void operator()(const long block) const {
+    const int num_samples = int(one.X.extent(0));
+    const long n = long(one.xhat.extent(0)) * num_samples, first = block * Lanes;
+    const int count = int(n - first < Lanes ? n - first : Lanes);
+    nn::PointBlock<Lanes, real_t> points;
+    int b[Lanes], s[Lanes];
+    real_t g[Lanes][3], discarded[3 * max_latent_dim];
+    real_t* J[Lanes];
+    for (int lane = 0; lane < Lanes; ++lane) {
+      const long e = first + (lane < count ? lane : count - 1);
+      b[lane] = int(e / num_samples);
+      s[lane] = int(e % num_samples);
+      for (int d = 0; d < 3; ++d) points.X[lane][d] = one.X(s[lane], d);
+      points.xhat[lane] = &one.xhat(b[lane], 0);
+      J[lane] = lane < count ? &one.sample_J(b[lane], s[lane], 0, 0) : discarded;
+    }
+    one.manifold.template block_position_and_tangent<Lanes>(points, g, J);
+    for (int lane = 0; lane < count; ++lane)
+      for (int d = 0; d < 3; ++d) one.sample_x(b[lane], s[lane], d) = g[lane][d];
+  }
+};
+
 }  // namespace mpmrom::rom
