@@ -523,11 +523,11 @@ void check_split_minibatch_sums_to_whole() {
 }
 
 // The CPU's block kernels (mlp_block.hpp) against the one-point kernels, lane by lane, on the poke model's shape (5
-// layers of 48, r = 5): 13 points at 13 codes, so that the second block repeats its last point in 3 lanes. The two
-// run the same sums in the same order and differ only where the compiler fuses a multiply-add (one rounding of a
-// term instead of two, at most eps |w h|): with |w| ~ 1.5 / sqrt(48) and O(1) activations, a layer's 48 terms carry
-// at most 48 eps of error and 5 layers, each of gain below 2, at most 5 x 48 x 2^5 eps, about 8000 eps, on outputs
-// of order one (the standardisation scales them down further).
+// layers of 48, r = 5), the kinematics' second-order channels included: 13 points at 13 codes, so that the second block
+// repeats its last point in 3 lanes. The two run the same sums in the same order and differ only where the compiler
+// fuses a multiply-add (one rounding of a term instead of two, at most eps |w h|): with |w| ~ 1.5 / sqrt(48) and O(1)
+// activations, a layer's 48 terms carry at most 48 eps of error and 5 layers, each of gain below 2, at most 5 x 48 x
+// 2^5 eps, about 8000 eps, on outputs of order one (the standardisation scales them down further).
 TEST(MlpBlock, BlockKernelsMatchOnePointKernels) {
   const int r = 5, P = 13;
   const HostNetwork net = random_network(r, 48, 5, 0, 21);
@@ -542,21 +542,40 @@ TEST(MlpBlock, BlockKernelsMatchOnePointKernels) {
       for (int k = 0; k < 3; ++k) points.X[lane][k] = X[3 * p + k];
       points.xhat[lane] = &codes[std::size_t(r * p)];
     }
-    double g[Lanes][3], g_only[Lanes][3], F[Lanes][3][3], J[Lanes][3 * 5];
-    double* Jp[Lanes];
-    for (int lane = 0; lane < Lanes; ++lane) Jp[lane] = J[lane];
+    double g[Lanes][3], g_only[Lanes][3], F[Lanes][3][3], J[Lanes][3 * 5], Jk[Lanes][3 * 5];
+    double *Jp[Lanes], *Jkp[Lanes];
+    const double* rates[Lanes];
+    for (int lane = 0; lane < Lanes; ++lane) {
+      Jp[lane] = J[lane];
+      Jkp[lane] = lane % 3 == 0 ? Jk[lane] : nullptr;  // the kinematics' dg/dxhat for some lanes only
+      rates[lane] = &codes[std::size_t(r * ((lane + 5) % P))];
+    }
     nn::BlockMlpForwardJacobian<Lanes, 64>(d.mlp, points, g, F, Jp);
     nn::BlockMlpForward<Lanes, 64>(d.mlp, points, g_only);
+    nn::PointKinematics<double> kin[Lanes];
+    nn::BlockMlpKinematics<Lanes, 64>(d.mlp, points, rates, kin, Jkp);
     for (int lane = 0; lane < Lanes; ++lane) {
       double g1[3], F1[3][3], J1[3 * 5];
       nn::SerialMlpForwardJacobian<64>(d.mlp, points.X[lane], points.xhat[lane], g1, F1, J1);
       double g2[3];
       nn::SerialMlpForward<64>(d.mlp, points.X[lane], points.xhat[lane], g2);
+      nn::PointKinematics<double> kin1;
+      double Jk1[3 * 5];
+      nn::SerialMlpKinematics<64>(d.mlp, points.X[lane], points.xhat[lane], rates[lane], kin1, Jk1);
       for (int k = 0; k < 3; ++k) {
         EXPECT_NEAR(g[lane][k], g1[k], tol) << "block " << first << " lane " << lane;
         EXPECT_NEAR(g_only[lane][k], g2[k], tol) << "block " << first << " lane " << lane;
-        for (int j = 0; j < 3; ++j) EXPECT_NEAR(F[lane][k][j], F1[k][j], tol * std::max(1.0, std::fabs(F1[k][j])));
-        for (int q = 0; q < r; ++q) EXPECT_NEAR(J[lane][k * r + q], J1[k * r + q], tol);
+        EXPECT_NEAR(kin[lane].g[k], kin1.g[k], tol) << "block " << first << " lane " << lane;
+        EXPECT_NEAR(kin[lane].v[k], kin1.v[k], tol * std::max(1.0, std::fabs(kin1.v[k])));
+        for (int j = 0; j < 3; ++j) {
+          EXPECT_NEAR(F[lane][k][j], F1[k][j], tol * std::max(1.0, std::fabs(F1[k][j])));
+          EXPECT_NEAR(kin[lane].F[k][j], kin1.F[k][j], tol * std::max(1.0, std::fabs(kin1.F[k][j])));
+          EXPECT_NEAR(kin[lane].Fdot[k][j], kin1.Fdot[k][j], tol * std::max(1.0, std::fabs(kin1.Fdot[k][j])));
+        }
+        for (int q = 0; q < r; ++q) {
+          EXPECT_NEAR(J[lane][k * r + q], J1[k * r + q], tol);
+          if (Jkp[lane] != nullptr) EXPECT_NEAR(Jk[lane][k * r + q], Jk1[k * r + q], tol);
+        }
       }
     }
   }

@@ -9,7 +9,9 @@
 #pragma once
 
 #include "core/math/simd.hpp"
+#include "core/math/unroll.hpp"
 #include "manifold/nn/mlp.hpp"
+#include "manifold/nn/mlp_kinematics.hpp"
 
 namespace mpmrom::nn {
 
@@ -49,6 +51,47 @@ KOKKOS_INLINE_FUNCTION void block_affine(const Mlp<T, MemorySpace>& mlp, int l, 
     MPMROM_SIMD
     for (int p = 0; p < Lanes; ++p) a[p] += w * h[j][p];
   }
+}
+
+// dy_k / dz (k < 3, z the standardised input; [k][input][lane]) from the hidden layers' slopes:
+// SerialMlpOutputAdjoint's reverse sweeps for the three outputs together, each sum over i ascending from zero as there.
+// Uses the two buffers and returns the one holding the result.
+template <int Lanes, int MaxWidth, class T, class MemorySpace>
+KOKKOS_INLINE_FUNCTION auto block_output_adjoints(const Mlp<T, MemorySpace>& mlp, const T (*slope)[MaxWidth][Lanes],
+                                                  T (*adjoint)[MaxWidth][Lanes], T (*spare)[MaxWidth][Lanes]) {
+  const MlpLayout& layout = mlp.layout;
+  const int L = layout.num_layers;
+  for (int k = 0; k < 3; ++k)
+    for (int j = 0; j < layout.dims[L - 1]; ++j) {
+      const T w = mlp.weight(L - 1, k, j);
+      for (int p = 0; p < Lanes; ++p) adjoint[k][j][p] = w;
+    }
+  T(*up)[MaxWidth][Lanes] = adjoint;
+  T(*down)[MaxWidth][Lanes] = spare;
+  for (int l = L - 2; l >= 0; --l) {
+    const int n_in = layout.dims[l], n_out = layout.dims[l + 1];
+    for (int k = 0; k < 3; ++k)
+      for (int i = 0; i < n_out; ++i)
+        for (int p = 0; p < Lanes; ++p) up[k][i][p] *= slope[l][i][p];
+    for (int j = 0; j < n_in; ++j) {
+      T sum[3][Lanes];
+      for (int k = 0; k < 3; ++k)
+        for (int p = 0; p < Lanes; ++p) sum[k][p] = T(0);
+      for (int i = 0; i < n_out; ++i) {
+        const T w = mlp.weight(l, i, j);
+        for (int k = 0; k < 3; ++k) {
+          MPMROM_SIMD
+          for (int p = 0; p < Lanes; ++p) sum[k][p] += w * up[k][i][p];
+        }
+      }
+      for (int k = 0; k < 3; ++k)
+        for (int p = 0; p < Lanes; ++p) down[k][j][p] = sum[k][p];
+    }
+    T(*tmp)[MaxWidth][Lanes] = up;
+    up = down;
+    down = tmp;
+  }
+  return up;
 }
 
 }  // namespace impl
@@ -111,37 +154,8 @@ KOKKOS_INLINE_FUNCTION void BlockMlpForwardJacobian(const Mlp<T, MemorySpace>& m
   for (int p = 0; p < Lanes; ++p)
     for (int k = 0; k < 3; ++k) g[p][k] = points.X[p][k] + s.output_mean[k] + s.output_scale[k] * h[k][p];
 
-  // adjoint[k][j][lane] = dy_k / d(input j of the layer), for the three outputs at once; the sums over i run
-  // ascending from zero, as SerialMlpOutputAdjoint's
   T adjoint[3][MaxWidth][Lanes], spare[3][MaxWidth][Lanes];
-  for (int k = 0; k < 3; ++k)
-    for (int j = 0; j < layout.dims[L - 1]; ++j) {
-      const T w = mlp.weight(L - 1, k, j);
-      for (int p = 0; p < Lanes; ++p) adjoint[k][j][p] = w;
-    }
-  T(*up)[MaxWidth][Lanes] = adjoint;
-  T(*down)[MaxWidth][Lanes] = spare;
-  for (int l = L - 2; l >= 0; --l) {
-    const int n_in = layout.dims[l], n_out = layout.dims[l + 1];
-    for (int k = 0; k < 3; ++k)
-      for (int i = 0; i < n_out; ++i)
-        for (int p = 0; p < Lanes; ++p) up[k][i][p] *= slope[l][i][p];
-    for (int j = 0; j < n_in; ++j) {
-      T sum[3][Lanes];
-      for (int k = 0; k < 3; ++k)
-        for (int p = 0; p < Lanes; ++p) sum[k][p] = T(0);
-      for (int i = 0; i < n_out; ++i) {
-        const T w = mlp.weight(l, i, j);
-        for (int k = 0; k < 3; ++k) MPMROM_SIMD
-        for (int p = 0; p < Lanes; ++p) sum[k][p] += w * up[k][i][p];
-      }
-      for (int k = 0; k < 3; ++k)
-        for (int p = 0; p < Lanes; ++p) down[k][j][p] = sum[k][p];
-    }
-    T(*tmp)[MaxWidth][Lanes] = up;
-    up = down;
-    down = tmp;
-  }
+  const auto up = impl::block_output_adjoints<Lanes, MaxWidth>(mlp, slope, adjoint, spare);
   for (int p = 0; p < Lanes; ++p)
     for (int k = 0; k < 3; ++k) {
       if (F != nullptr)
@@ -149,6 +163,90 @@ KOKKOS_INLINE_FUNCTION void BlockMlpForwardJacobian(const Mlp<T, MemorySpace>& m
           F[p][k][d] = (k == d ? T(1) : T(0)) + s.output_scale[k] * up[k][d][p] / s.input_scale[d];
       for (int q = 0; q < r; ++q) dgdxhat[p][k * r + q] = s.output_scale[k] * up[k][3 + q][p];
     }
+}
+
+// The kinematics of SerialMlpKinematics (g, F, v, Fdot; dg/dxhat where the lane's dgdxhat is not null) for each point
+// of the block at its latent state and rate: the eight forward channels of each neuron across the lanes, then, if any
+// lane asks for dg/dxhat, the three reverse sweeps. Parallelism contract: one thread, no team, no scratch; MaxWidth >=
+// layout.widest.
+template <int Lanes, int MaxWidth, class T, class MemorySpace>
+KOKKOS_INLINE_FUNCTION void BlockMlpKinematics(const Mlp<T, MemorySpace>& mlp, const PointBlock<Lanes, T>& points,
+                                               const T* const* xhatdot, PointKinematics<T>* out, T* const* dgdxhat) {
+  constexpr int C = kinematics_channels;
+  const MlpLayout& layout = mlp.layout;
+  const Standardization<T>& s = mlp.standardization;
+  const int L = layout.num_layers, r = layout.latent_dim;
+  T slope[max_layers - 1][MaxWidth][Lanes];
+  T buffer[2][MaxWidth][C][Lanes];
+  T(*h)[C][Lanes] = buffer[0];
+  T(*next)[C][Lanes] = buffer[1];
+  for (int j = 0; j < 3 + r; ++j)
+    for (int c = 0; c < C; ++c)
+      for (int p = 0; p < Lanes; ++p) h[j][c][p] = T(0);
+  for (int p = 0; p < Lanes; ++p) {
+    for (int d = 0; d < 3; ++d) {
+      h[d][0][p] = (points.X[p][d] - s.input_mean[d]) / s.input_scale[d];
+      h[d][1 + d][p] = T(1) / s.input_scale[d];
+    }
+    for (int q = 0; q < r; ++q) {
+      h[3 + q][0][p] = points.xhat[p][q];
+      h[3 + q][4][p] = xhatdot[p][q];
+    }
+  }
+  for (int l = 0; l < L; ++l) {
+    const bool hidden = l + 1 < L;
+    const int n_in = layout.dims[l];
+    for (int i = 0; i < layout.dims[l + 1]; ++i) {
+      T a[C][Lanes];
+      for (int c = 0; c < C; ++c)
+        for (int p = 0; p < Lanes; ++p) a[c][p] = c == 0 ? mlp.bias(l, i) : T(0);
+      const T* W = &mlp.params(layout.weight_offset[l] + i * n_in);
+      for (int half = 0; half < C; half += C / 2) {  // four channels' accumulators at a time, held in registers
+        T sum[C / 2][Lanes];
+        for (int c = 0; c < C / 2; ++c)
+          for (int p = 0; p < Lanes; ++p) sum[c][p] = a[half + c][p];
+        for (int j = 0; j < n_in; ++j) {
+          const T w = W[j];
+          MPMROM_UNROLL
+          for (int c = 0; c < C / 2; ++c) {
+            MPMROM_SIMD
+            for (int p = 0; p < Lanes; ++p) sum[c][p] += w * h[j][half + c][p];
+          }
+        }
+        for (int c = 0; c < C / 2; ++c)
+          for (int p = 0; p < Lanes; ++p) a[half + c][p] = sum[c][p];
+      }
+      for (int p = 0; p < Lanes; ++p) {
+        T lane[C];
+        for (int c = 0; c < C; ++c) lane[c] = a[c][p];
+        NeuronChannels<T> z;
+        finish_neuron(lane, hidden, z, hidden ? &slope[l][i][p] : nullptr);
+        for (int c = 0; c < C; ++c) next[i][c][p] = z.c[c];
+      }
+    }
+    T(*tmp)[C][Lanes] = h;
+    h = next;
+    next = tmp;
+  }
+  bool any_jacobian = false;
+  for (int p = 0; p < Lanes; ++p) {
+    any_jacobian = any_jacobian || dgdxhat[p] != nullptr;
+    for (int k = 0; k < 3; ++k) {
+      out[p].g[k] = points.X[p][k] + s.output_mean[k] + s.output_scale[k] * h[k][0][p];
+      out[p].v[k] = s.output_scale[k] * h[k][4][p];
+      for (int j = 0; j < 3; ++j) {
+        out[p].F[k][j] = (k == j ? T(1) : T(0)) + s.output_scale[k] * h[k][1 + j][p];
+        out[p].Fdot[k][j] = s.output_scale[k] * h[k][5 + j][p];
+      }
+    }
+  }
+  if (!any_jacobian) return;
+  T adjoint[3][MaxWidth][Lanes], spare[3][MaxWidth][Lanes];
+  const auto up = impl::block_output_adjoints<Lanes, MaxWidth>(mlp, slope, adjoint, spare);
+  for (int p = 0; p < Lanes; ++p)
+    if (dgdxhat[p] != nullptr)
+      for (int k = 0; k < 3; ++k)
+        for (int q = 0; q < r; ++q) dgdxhat[p][k * r + q] = s.output_scale[k] * up[k][3 + q][p];
 }
 
 }  // namespace mpmrom::nn

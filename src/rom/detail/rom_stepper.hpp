@@ -139,6 +139,7 @@ class BatchStepper final : public BatchStepperBase {
     using Sources = rom::MaterialPointSources<Manifold, ExecutionSpace>;
     using Samples = rom::SampleKinematics<Manifold, ExecutionSpace>;
     sources_launch_ = team_launch<ExecutionSpace>(manifold_, long(B) * K, false, Sources::scratch_for);
+    if constexpr (Sources::host_blocks) sources_launch_.shape.rounds = nn::host_block_lanes;  // a block a team
     samples_launch_ = team_launch<ExecutionSpace>(manifold_, long(B) * S, true, Samples::scratch_for);
     // On GPUs the grid strain's nodes take the samples' kinematics at the same state into their launch, where teams
     // run it (rom::TeamNodesAndSamples).

@@ -22,6 +22,9 @@
 // and, for CPUs, position_and_tangent over a block of points (nn::PointBlock; dgdxhat one 3 x r array a lane):
 //   template <int Lanes> KOKKOS_FUNCTION void block_position_and_tangent(const nn::PointBlock<Lanes, real_t>&,
 //        real_t (*g)[3], real_t* const* dgdxhat) const;   // TeamFromSerial's runs position_and_tangent a lane
+//   template <int Lanes> KOKKOS_FUNCTION void block_kinematics(const nn::PointBlock<Lanes, real_t>&,
+//        const real_t* const* xhatdot, nn::PointKinematics<real_t>* out, real_t* const* dgdxhat /* null: none */)
+//        const;                                       // TeamFromSerial's runs kinematics a lane
 // MlpManifold adapts a trained network; tests plug in analytic maps, which get the team interface from
 // TeamFromSerial. Parallelism contract: value types; kinematics and position_and_gradient within one thread.
 #pragma once
@@ -71,6 +74,14 @@ struct TeamFromSerial {
     for (int lane = 0; lane < Lanes; ++lane)
       static_cast<const Manifold&>(*this).position_and_tangent(points.X[lane], points.xhat[lane], g[lane],
                                                                dgdxhat[lane]);
+  }
+  template <int Lanes>
+  KOKKOS_INLINE_FUNCTION void block_kinematics(const nn::PointBlock<Lanes, real_t>& points,
+                                               const real_t* const* xhatdot, nn::PointKinematics<real_t>* out,
+                                               real_t* const* dgdxhat) const {
+    for (int lane = 0; lane < Lanes; ++lane)
+      static_cast<const Manifold&>(*this).kinematics(points.X[lane], points.xhat[lane], xhatdot[lane], out[lane],
+                                                     dgdxhat[lane]);
   }
   int team_lanes() const { return 1; }
   bool thread_tangent() const { return false; }
@@ -138,6 +149,12 @@ struct MlpManifold {
   KOKKOS_INLINE_FUNCTION void block_position_and_tangent(const nn::PointBlock<Lanes, real_t>& points, real_t (*g)[3],
                                                          real_t* const* dgdxhat) const {
     nn::BlockMlpForwardJacobian<Lanes, MaxWidth>(mlp, points, g, static_cast<real_t(*)[3][3]>(nullptr), dgdxhat);
+  }
+  template <int Lanes>
+  KOKKOS_INLINE_FUNCTION void block_kinematics(const nn::PointBlock<Lanes, real_t>& points,
+                                               const real_t* const* xhatdot, nn::PointKinematics<real_t>* out,
+                                               real_t* const* dgdxhat) const {
+    nn::BlockMlpKinematics<Lanes, MaxWidth>(mlp, points, xhatdot, out, dgdxhat);
   }
 
   KOKKOS_INLINE_FUNCTION bool thread_tangent() const { return narrow.quads.extent(0) > 0; }

@@ -102,13 +102,17 @@ KOKKOS_INLINE_FUNCTION void clear_source(const SourceView<MemorySpace>& sources,
 
 // Algorithm 1, step 2: the sample and neighbour material points (sample points first: k < num_samples), each with
 // its full-order mass and reference volume. The samples' positions and dg/dxhat are kept for the projection.
-// Parallelism: a team per shape.items() (point, rollout) items, rollouts fastest (team_shape.hpp): each team thread
-// runs the network for shape.rounds items with its lanes, the kinematics kept in scratch, then the team's threads
+// Parallelism: a team per shape.items() (point, rollout) items, rollouts fastest (team_shape.hpp), the samples' items
+// first: on GPUs each team thread runs the network for shape.rounds items with its lanes, on CPUs the team's one
+// thread runs its nn::host_block_lanes items as one block; the kinematics kept in scratch, then the team's threads
 // and lanes take one item each for the stress.
 template <class Manifold, class ExecutionSpace>
 struct MaterialPointSources {
   using MemorySpace = typename ExecutionSpace::memory_space;
   using member_type = typename Kokkos::TeamPolicy<ExecutionSpace>::member_type;
+  // On CPUs the team's items take the network as one block (the launch gives a team nn::host_block_lanes items)
+  static constexpr bool host_blocks =
+      Kokkos::SpaceAccessibility<Kokkos::HostSpace, MemorySpace>::accessible && math::host_lane_blocks;
 
   Manifold manifold;
   Kokkos::View<const real_t**, Kokkos::LayoutRight, MemorySpace> X;  // (points, 3)
@@ -135,20 +139,14 @@ struct MaterialPointSources {
     const int num_rollouts = int(xhat.extent(0)), num_samples = int(sample_x.extent(1));
     const long total = long(X.extent(0)) * num_rollouts;
     const long first = long(member.league_rank()) * shape.items();
-    const long sample_items = long(num_samples) * num_rollouts;  // the first items: samples come first
     real_t* base = scratch.base(member, shape);
     const real_t* staged = manifold.team_stage(member, base);
     real_t* own = scratch.thread_part(base, member.team_rank());
     auto* kinematics = reinterpret_cast<nn::PointKinematics<real_t>*>(scratch.item_part(base, shape));
-    for (int round = 0; round < shape.rounds; ++round) {
-      const long round_first = first + long(round) * shape.threads;
-      const int item = round * shape.threads + member.team_rank();
-      const long e = first + item;
-      const bool active = e < total;
-      const int k = active ? int(e / num_rollouts) : 0, b = active ? int(e % num_rollouts) : 0;
-      const real_t Xk[3] = {X(k, 0), X(k, 1), X(k, 2)};
-      manifold.team_kinematics(member, staged, own, active, Xk, &xhat(b, 0), &xhatdot(b, 0), round_first < sample_items,
-                               kinematics[item], active && k < num_samples ? &sample_J(b, k, 0, 0) : nullptr);
+    if constexpr (host_blocks) {
+      block_kinematics(first, kinematics);
+    } else {
+      team_kinematics(member, first, staged, own, kinematics);
     }
     member.team_barrier();
     Kokkos::parallel_for(Kokkos::TeamVectorRange(member, shape.items()), [&](const int item) {
@@ -167,6 +165,45 @@ struct MaterialPointSources {
       if (k < num_samples)
         for (int d = 0; d < 3; ++d) sample_x(b, k, d) = kin.g[d];
     });
+  }
+
+  // The network at the team's items on GPU teams: each team thread takes `rounds` items one after another, its lanes
+  // sharing each point (the samples, the first items, also get dg/dxhat).
+  KOKKOS_INLINE_FUNCTION void team_kinematics(const member_type& member, long first, const real_t* staged, real_t* own,
+                                              nn::PointKinematics<real_t>* kinematics) const {
+    const int num_rollouts = int(xhat.extent(0)), num_samples = int(sample_x.extent(1));
+    const long total = long(X.extent(0)) * num_rollouts, sample_items = long(num_samples) * num_rollouts;
+    for (int round = 0; round < shape.rounds; ++round) {
+      const long round_first = first + long(round) * shape.threads;
+      const int item = round * shape.threads + member.team_rank();
+      const long e = first + item;
+      const bool active = e < total;
+      const int k = active ? int(e / num_rollouts) : 0, b = active ? int(e % num_rollouts) : 0;
+      const real_t Xk[3] = {X(k, 0), X(k, 1), X(k, 2)};
+      manifold.team_kinematics(member, staged, own, active, Xk, &xhat(b, 0), &xhatdot(b, 0), round_first < sample_items,
+                               kinematics[item], active && k < num_samples ? &sample_J(b, k, 0, 0) : nullptr);
+    }
+  }
+
+  // The network at the team's items on CPUs (a team of one thread, shape.items() = nn::host_block_lanes items): one
+  // block of points across the lanes (Manifold::block_kinematics); lanes past the last item repeat it.
+  KOKKOS_INLINE_FUNCTION void block_kinematics(long first, nn::PointKinematics<real_t>* kinematics) const {
+    constexpr int Lanes = nn::host_block_lanes;
+    const int num_rollouts = int(xhat.extent(0)), num_samples = int(sample_x.extent(1));
+    const long total = long(X.extent(0)) * num_rollouts;
+    const int count = int(total - first < Lanes ? total - first : Lanes);
+    nn::PointBlock<Lanes, real_t> points;
+    const real_t* rates[Lanes];
+    real_t* J[Lanes];
+    for (int lane = 0; lane < Lanes; ++lane) {
+      const long e = first + (lane < count ? lane : count - 1);
+      const int k = int(e / num_rollouts), b = int(e % num_rollouts);
+      for (int d = 0; d < 3; ++d) points.X[lane][d] = X(k, d);
+      points.xhat[lane] = &xhat(b, 0);
+      rates[lane] = &xhatdot(b, 0);
+      J[lane] = lane < count && k < num_samples ? &sample_J(b, k, 0, 0) : nullptr;
+    }
+    manifold.template block_kinematics<Lanes>(points, rates, kinematics, J);
   }
 };
 
