@@ -3,6 +3,7 @@
 #pragma once
 
 #include "core/math/mat3.hpp"
+#include "core/math/simd.hpp"
 
 namespace mpmrom {
 
@@ -50,6 +51,25 @@ KOKKOS_INLINE_FUNCTION QuadraticStencil<T> quadratic_stencil(const Vec3<T>& x, c
     s.dw[d][2] = f2 * inv_dx;
   }
   return s;
+}
+
+// quadratic_stencil's base node and 1D weights along one axis for L points side by side (the CPU's block kernels:
+// the lane loop vectorised; the same arithmetic per point).
+template <int L, class T>
+KOKKOS_INLINE_FUNCTION void quadratic_weights_lanes(const T (&x)[L], T origin, T inv_dx, int (&base)[L], T (&w)[3][L],
+                                                    T (&dw)[3][L]) {
+  MPMROM_SIMD for (int l = 0; l < L; ++l) {
+    const T xi = (x[l] - origin) * inv_dx;
+    base[l] = static_cast<int>(math::floor(xi - T(0.5)));
+    const T f = xi - T(base[l]);
+    const T f0 = T(1.5) - f, f1 = f - T(1), f2 = f - T(0.5);
+    w[0][l] = T(0.5) * f0 * f0;
+    w[1][l] = T(0.75) - f1 * f1;
+    w[2][l] = T(0.5) * f2 * f2;
+    dw[0][l] = -f0 * inv_dx;
+    dw[1][l] = T(-2) * f1 * inv_dx;
+    dw[2][l] = f2 * inv_dx;
+  }
 }
 
 }  // namespace mpmrom

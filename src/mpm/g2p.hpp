@@ -4,7 +4,8 @@
 // Writes the largest particle speed, which sets the next CFL time step, into `max_speed` (a device View, so the
 // host need not wait), and counts in `problems` the particles left in a state the run cannot go on from (the
 // driver reports them; counting costs nothing while none occurs).
-// Parallelism: one thread per particle.
+// Parallelism: one thread per particle on GPUs; on CPUs a thread per block of 8 consecutive particles, their
+// arithmetic vectorised across the block (the same operations per particle, in the same order).
 #pragma once
 
 #include "core/light_launch.hpp"
@@ -19,12 +20,40 @@ enum ParticleProblem : int { problem_not_finite = 0, problem_inverted = 1, num_p
 template <class MemorySpace>
 using ParticleProblemCounts = Kokkos::View<int[num_particle_problems], MemorySpace>;
 
+namespace detail {
+
+// What G2P writes for one particle from the velocities of its stencil's nodes.
+template <class MemorySpace>
+struct G2PUpdate {
+  ParticleViews<MemorySpace> particles;
+  ParticleProblemCounts<MemorySpace> problems;
+  real_t dt;
+  real_t inverse_inertia;  // D_p^{-1} = 4 / dx^2 for quadratic B-splines (Jiang et al. 2015)
+  bool apic;
+
+  // Stores the new state of particle p and returns its speed.
+  KOKKOS_INLINE_FUNCTION real_t operator()(int p, const Vec3<real_t>& x, const Vec3<real_t>& v,
+                                           const Mat3<real_t>& affine, const Mat3<real_t>& velocity_gradient) const {
+    const Mat3<real_t> F = (Mat3<real_t>::identity() + dt * velocity_gradient) * load_mat3(particles.F, p);
+    const Vec3<real_t> x_next = x + dt * v;
+    const real_t J = determinant(F);
+    if (!math::isfinite(v[0] + v[1] + v[2] + x_next[0] + x_next[1] + x_next[2] + J))
+      Kokkos::atomic_add(&problems(problem_not_finite), 1);
+    else if (!(J > real_t(0)))
+      Kokkos::atomic_add(&problems(problem_inverted), 1);
+    store_vec3(particles.v, p, v);
+    store_mat3(particles.C, p, apic ? inverse_inertia * affine : Mat3<real_t>::zero());
+    store_mat3(particles.F, p, F);
+    store_vec3(particles.x, p, x_next);
+    return norm(v);
+  }
+};
+
 template <class ExecutionSpace, class MemorySpace>
-void g2p(const ExecutionSpace& space, const ParticleViews<MemorySpace>& particles,
-         const GridNodeView<MemorySpace>& nodes, const GridGeometry<real_t>& grid, real_t dt, bool apic,
-         const ParticleProblemCounts<MemorySpace>& problems, const Kokkos::View<real_t, MemorySpace>& max_speed) {
-  // D_p^{-1} = 4 / dx^2 for quadratic B-splines (Jiang et al. 2015).
-  const real_t inverse_inertia = real_t(4) * grid.inv_dx * grid.inv_dx;
+void g2p_per_particle(const ExecutionSpace& space, const G2PUpdate<MemorySpace>& update,
+                      const GridNodeView<MemorySpace>& nodes, const GridGeometry<real_t>& grid,
+                      const Kokkos::View<real_t, MemorySpace>& max_speed) {
+  const ParticleViews<MemorySpace> particles = update.particles;
   Kokkos::parallel_reduce(
       "mpmrom::fom::g2p", Kokkos::RangePolicy<ExecutionSpace, LightWeight>(space, 0, particles.size()),
       KOKKOS_LAMBDA(const int p, real_t& speed) {
@@ -43,20 +72,87 @@ void g2p(const ExecutionSpace& space, const ParticleViews<MemorySpace>& particle
               affine += w * outer(vi, s.node_offset(a, b, c, x, grid.origin, grid.dx));
               velocity_gradient += outer(vi, s.gradient(a, b, c));
             }
-        const Mat3<real_t> F = (Mat3<real_t>::identity() + dt * velocity_gradient) * load_mat3(particles.F, p);
-        const Vec3<real_t> x_next = x + dt * v;
-        const real_t J = determinant(F);
-        if (!math::isfinite(v[0] + v[1] + v[2] + x_next[0] + x_next[1] + x_next[2] + J))
-          Kokkos::atomic_add(&problems(problem_not_finite), 1);
-        else if (!(J > real_t(0)))
-          Kokkos::atomic_add(&problems(problem_inverted), 1);
-        store_vec3(particles.v, p, v);
-        store_mat3(particles.C, p, apic ? inverse_inertia * affine : Mat3<real_t>::zero());
-        store_mat3(particles.F, p, F);
-        store_vec3(particles.x, p, x_next);
-        speed = math::max(speed, norm(v));
+        speed = math::max(speed, update(p, x, v, affine, velocity_gradient));
       },
       Kokkos::Max<real_t, MemorySpace>(max_speed));
+}
+
+// The stencil sums of particle_lanes consecutive particles side by side: each lane's sums are g2p_per_particle's, term
+// for term, and only the lane loops run vectorised; the new state is then stored particle by particle.
+template <class ExecutionSpace, class MemorySpace>
+void g2p_blocks(const ExecutionSpace& space, const G2PUpdate<MemorySpace>& update,
+                const GridNodeView<MemorySpace>& nodes, const GridGeometry<real_t>& grid,
+                const Kokkos::View<real_t, MemorySpace>& max_speed) {
+  constexpr int L = particle_lanes;
+  const ParticleViews<MemorySpace> particles = update.particles;
+  const int n = static_cast<int>(particles.size());
+  Kokkos::parallel_reduce(
+      "mpmrom::fom::g2p_blocks", Kokkos::RangePolicy<ExecutionSpace>(space, 0, (n + L - 1) / L),
+      KOKKOS_LAMBDA(const int block, real_t& speed) {
+        const int first = block * L;
+        const int count = n - first < L ? n - first : L;
+        real_t x[3][L], w[3][3][L], dw[3][3][L];
+        int base[3][L];
+        bool inside[L];
+        for (int l = 0; l < L; ++l)  // lanes past the end repeat the block's first particle and store nothing
+          for (int d = 0; d < 3; ++d) x[d][l] = particles.x(l < count ? first + l : first, d);
+        for (int d = 0; d < 3; ++d) quadratic_weights_lanes<L>(x[d], grid.origin[d], grid.inv_dx, base[d], w[d], dw[d]);
+        for (int l = 0; l < L; ++l) {
+          const int b[3] = {base[0][l], base[1][l], base[2][l]};
+          inside[l] = l < count && grid.stencil_inside(b);
+          if (!inside[l])  // P2G has counted it; its lane reads the grid's first stencil and stores nothing
+            for (int d = 0; d < 3; ++d) base[d][l] = 0;
+        }
+        real_t v[3][L] = {}, affine[3][3][L] = {}, gradient[3][3][L] = {};
+        for (int a = 0; a < 3; ++a)
+          for (int b = 0; b < 3; ++b)
+            for (int c = 0; c < 3; ++c) {
+              real_t vi[3][L];
+              for (int l = 0; l < L; ++l) {
+                const int node = grid.index(base[0][l] + a, base[1][l] + b, base[2][l] + c);
+                for (int d = 0; d < 3; ++d) vi[d][l] = nodes(node, d + 1);
+              }
+              const real_t dx = grid.dx;
+              MPMROM_SIMD for (int l = 0; l < L; ++l) {
+                const real_t weight = w[0][a][l] * w[1][b][l] * w[2][c][l];
+                const real_t g[3] = {dw[0][a][l] * w[1][b][l] * w[2][c][l], w[0][a][l] * dw[1][b][l] * w[2][c][l],
+                                     w[0][a][l] * w[1][b][l] * dw[2][c][l]};
+                const real_t offset[3] = {grid.origin[0] + real_t(base[0][l] + a) * dx - x[0][l],
+                                          grid.origin[1] + real_t(base[1][l] + b) * dx - x[1][l],
+                                          grid.origin[2] + real_t(base[2][l] + c) * dx - x[2][l]};
+                for (int i = 0; i < 3; ++i) {
+                  v[i][l] += weight * vi[i][l];
+                  for (int j = 0; j < 3; ++j) {
+                    affine[i][j][l] += weight * (vi[i][l] * offset[j]);
+                    gradient[i][j][l] += vi[i][l] * g[j];
+                  }
+                }
+              }
+            }
+        for (int l = 0; l < count; ++l) {
+          if (!inside[l]) continue;
+          Mat3<real_t> A, G;
+          for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j) A(i, j) = affine[i][j][l], G(i, j) = gradient[i][j][l];
+          const real_t s = update(first + l, {{x[0][l], x[1][l], x[2][l]}}, {{v[0][l], v[1][l], v[2][l]}}, A, G);
+          speed = math::max(speed, s);
+        }
+      },
+      Kokkos::Max<real_t, MemorySpace>(max_speed));
+}
+
+}  // namespace detail
+
+template <class ExecutionSpace, class MemorySpace>
+void g2p(const ExecutionSpace& space, const ParticleViews<MemorySpace>& particles,
+         const GridNodeView<MemorySpace>& nodes, const GridGeometry<real_t>& grid, real_t dt, bool apic,
+         const ParticleProblemCounts<MemorySpace>& problems, const Kokkos::View<real_t, MemorySpace>& max_speed,
+         ParticleLaunch launch = default_particle_launch<ExecutionSpace>()) {
+  const detail::G2PUpdate<MemorySpace> update{particles, problems, dt, real_t(4) * grid.inv_dx * grid.inv_dx, apic};
+  if constexpr (Kokkos::SpaceAccessibility<ExecutionSpace, Kokkos::HostSpace>::accessible) {
+    if (launch == ParticleLaunch::Blocks) return detail::g2p_blocks(space, update, nodes, grid, max_speed);
+  }
+  detail::g2p_per_particle(space, update, nodes, grid, max_speed);
 }
 
 }  // namespace mpmrom

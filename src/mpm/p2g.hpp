@@ -77,6 +77,93 @@ struct P2GParticle {
   }
 };
 
+// P2G's work for the particles [first, first + count) of a block (count <= particle_lanes, CPUs): the stencils and the
+// 27 nodes' shares computed side by side for the block (the lane loops vectorised; each particle's terms
+// P2GParticle's, in its order), the stress particle by particle, then the shares added particle by particle, so
+// that every node still receives its particles in increasing order.
+template <class MemorySpace, class Add>
+KOKKOS_INLINE_FUNCTION void p2g_block(const P2GParticle<MemorySpace>& kernel, int first, int count, const Add& add) {
+  constexpr int L = particle_lanes;
+  const ParticleViews<MemorySpace>& particles = kernel.particles;
+  const GridGeometry<real_t>& grid = kernel.grid;
+  const bool with_energy = kernel.elastic_energy.extent(0) > 0;
+  real_t x[3][L], w[3][3][L], dw[3][3][L];
+  int base[3][L];
+  bool inside[L];
+  for (int l = 0; l < L; ++l)  // lanes past the end repeat the block's first particle and add nothing
+    for (int d = 0; d < 3; ++d) x[d][l] = particles.x(l < count ? first + l : first, d);
+  for (int d = 0; d < 3; ++d) quadratic_weights_lanes<L>(x[d], grid.origin[d], grid.inv_dx, base[d], w[d], dw[d]);
+  // Per particle: its momentum, m C, dt times its external force, and -dt V tau (the stress: an SVD each).
+  real_t mass[L], momentum[3][L], affine[3][3][L], impulse[3][L], stress[3][3][L];
+  for (int l = 0; l < L; ++l) {
+    const int p = l < count ? first + l : first;
+    const int b[3] = {base[0][l], base[1][l], base[2][l]};
+    inside[l] = l < count && grid.stencil_inside(b);
+    if (l < count && !inside[l]) {
+      Kokkos::atomic_add(&kernel.outside(), 1);
+      if (with_energy) kernel.elastic_energy(p) = 0;  // the step fails: it left the grid
+    }
+    if (!inside[l]) {  // reads the grid's first stencil and adds nothing
+      for (int d = 0; d < 3; ++d) base[d][l] = 0;
+      mass[l] = 0;
+      for (int i = 0; i < 3; ++i) {
+        momentum[i][l] = impulse[i][l] = 0;
+        for (int j = 0; j < 3; ++j) affine[i][j][l] = stress[i][j][l] = 0;
+      }
+      continue;
+    }
+    const real_t m = particles.mass(p);
+    mass[l] = m;
+    for (int i = 0; i < 3; ++i) momentum[i][l] = m * particles.v(p, i);
+    real_t psi = 0;
+    const Mat3<real_t> tau = kirchhoff_stress(kernel.material, load_mat3(particles.F, p), with_energy ? &psi : nullptr);
+    const real_t scale = -kernel.dt * particles.volume(p);
+    if (with_energy) kernel.elastic_energy(p) = double(particles.volume(p)) * double(psi);
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) {
+        affine[i][j][l] = kernel.apic ? m * particles.C(p, i, j) : real_t(0);
+        stress[i][j][l] = scale * tau(i, j);
+      }
+    Vec3<real_t> dt_force = Vec3<real_t>::zero();
+    for (int k = 0; k < kernel.external.count; ++k) {
+      const real_t share = kernel.dt * particles.force_share(p, k);
+      for (int d = 0; d < 3; ++d) dt_force[d] += share * kernel.external.force[3 * k + d];
+    }
+    for (int i = 0; i < 3; ++i) impulse[i][l] = dt_force[i];
+  }
+  // Every node's share for every lane: w m and w (m v + m C (x_i - x_p) + dt f) - dt V tau grad w.
+  real_t node_mass[27][L], node_momentum[27][3][L];
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b)
+      for (int c = 0; c < 3; ++c) {
+        const int k = (a * 3 + b) * 3 + c;
+        const real_t dx = grid.dx;
+        MPMROM_SIMD for (int l = 0; l < L; ++l) {
+          const real_t weight = w[0][a][l] * w[1][b][l] * w[2][c][l];
+          const real_t g[3] = {dw[0][a][l] * w[1][b][l] * w[2][c][l], w[0][a][l] * dw[1][b][l] * w[2][c][l],
+                               w[0][a][l] * w[1][b][l] * dw[2][c][l]};
+          const real_t offset[3] = {grid.origin[0] + real_t(base[0][l] + a) * dx - x[0][l],
+                                    grid.origin[1] + real_t(base[1][l] + b) * dx - x[1][l],
+                                    grid.origin[2] + real_t(base[2][l] + c) * dx - x[2][l]};
+          node_mass[k][l] = weight * mass[l];
+          for (int i = 0; i < 3; ++i) {
+            const real_t affine_offset =
+                affine[i][0][l] * offset[0] + affine[i][1][l] * offset[1] + affine[i][2][l] * offset[2];
+            const real_t stress_gradient = stress[i][0][l] * g[0] + stress[i][1][l] * g[1] + stress[i][2][l] * g[2];
+            node_momentum[k][i][l] = weight * (momentum[i][l] + affine_offset + impulse[i][l]) + stress_gradient;
+          }
+        }
+      }
+  for (int l = 0; l < count; ++l) {
+    if (!inside[l]) continue;
+    for (int k = 0; k < 27; ++k) {
+      const int ijk[3] = {base[0][l] + k / 9, base[1][l] + (k / 3) % 3, base[2][l] + k % 3};
+      const Vec3<real_t> share{{node_momentum[k][0][l], node_momentum[k][1][l], node_momentum[k][2][l]}};
+      add(grid.index(ijk[0], ijk[1], ijk[2]), ijk, node_mass[k][l], share);
+    }
+  }
+}
+
 // Accumulators: add(node, (i, j, k) of node, mass, momentum) sums one particle's share into one node.
 template <class MemorySpace>
 struct AtomicGridAdd {
@@ -98,7 +185,7 @@ struct AtomicGridAdd {
 
 template <class Access>
 struct ScatterGridAdd {
-  const Access& access;
+  Access access;  // a thread's view of the ScatterView, made in the work item
   KOKKOS_INLINE_FUNCTION void operator()(int node, const int*, real_t mass, const Vec3<real_t>& momentum) const {
     access(node, 0) += mass;
     for (int d = 0; d < 3; ++d) access(node, d + 1) += momentum[d];
@@ -128,14 +215,36 @@ struct TileGridAdd {
   }
 };
 
+// Launches `kernel` over the particles, one a thread or in blocks (p2g_block), with the accumulator that
+// make_add(), called in each work item, returns.
+template <class ExecutionSpace, class MemorySpace, class MakeAdd>
+void p2g_launch(const char* name, const ExecutionSpace& space, const P2GParticle<MemorySpace>& kernel,
+                ParticleLaunch launch, const MakeAdd& make_add) {
+  const int n = static_cast<int>(kernel.particles.size());
+  if constexpr (Kokkos::SpaceAccessibility<ExecutionSpace, Kokkos::HostSpace>::accessible) {
+    if (launch == ParticleLaunch::Blocks) {
+      constexpr int L = particle_lanes;
+      Kokkos::parallel_for(
+          name, Kokkos::RangePolicy<ExecutionSpace>(space, 0, (n + L - 1) / L), KOKKOS_LAMBDA(const int block) {
+            const int first = block * L;
+            p2g_block(kernel, first, n - first < L ? n - first : L, make_add());
+          });
+      return;
+    }
+  }
+  Kokkos::parallel_for(
+      name, Kokkos::RangePolicy<ExecutionSpace, LightWeight>(space, 0, n),
+      KOKKOS_LAMBDA(const int p) { kernel(p, make_add()); });
+}
+
 // P2G with atomic adds into `nodes`, which the caller has zeroed.
 template <class ExecutionSpace, class MemorySpace>
 void p2g_atomic(const ExecutionSpace& space, const P2GParticle<MemorySpace>& kernel,
-                const GridNodeView<MemorySpace>& nodes) {
+                const GridNodeView<MemorySpace>& nodes,
+                ParticleLaunch launch = default_particle_launch<ExecutionSpace>()) {
   const AtomicGridAdd<MemorySpace> add{nodes};
-  Kokkos::parallel_for(
-      "mpmrom::fom::p2g_atomic", Kokkos::RangePolicy<ExecutionSpace, LightWeight>(space, 0, kernel.particles.size()),
-      KOKKOS_LAMBDA(const int p) { kernel(p, add); });
+  p2g_launch(
+      "mpmrom::fom::p2g_atomic", space, kernel, launch, KOKKOS_LAMBDA() { return add; });
 }
 
 template <class ExecutionSpace, class MemorySpace>
@@ -146,14 +255,13 @@ using GridScatterView = Kokkos::Experimental::ScatterView<real_t* [4], typename 
 // contributed into `nodes`, which the caller has zeroed.
 template <class ExecutionSpace, class MemorySpace>
 void p2g_scatter(const ExecutionSpace& space, const P2GParticle<MemorySpace>& kernel,
-                 GridScatterView<ExecutionSpace, MemorySpace>& scatter, const GridNodeView<MemorySpace>& nodes) {
+                 GridScatterView<ExecutionSpace, MemorySpace>& scatter, const GridNodeView<MemorySpace>& nodes,
+                 ParticleLaunch launch = default_particle_launch<ExecutionSpace>()) {
   scatter.reset();
-  Kokkos::parallel_for(
-      "mpmrom::fom::p2g_scatter", Kokkos::RangePolicy<ExecutionSpace>(space, 0, kernel.particles.size()),
-      KOKKOS_LAMBDA(const int p) {
-        auto access = scatter.access();
-        kernel(p, ScatterGridAdd<decltype(access)>{access});
-      });
+  const auto scatter_copy = scatter;
+  p2g_launch(
+      "mpmrom::fom::p2g_scatter", space, kernel, launch,
+      KOKKOS_LAMBDA() { return ScatterGridAdd<decltype(scatter_copy.access())>{scatter_copy.access()}; });
   GridNodeView<MemorySpace> destination = nodes;  // Kokkos 3.4's contribute() takes a non-const View reference
   Kokkos::Experimental::contribute(destination, scatter);
 }

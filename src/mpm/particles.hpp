@@ -3,6 +3,7 @@
 #pragma once
 
 #include "core/math/mat3.hpp"
+#include "core/math/simd.hpp"
 #include "mpmrom/mpmrom_config.hpp"
 
 namespace mpmrom {
@@ -35,6 +36,19 @@ struct ParticleViews {
 
   std::size_t size() const { return x.extent(0); }
 };
+
+// How the transfers spread the particles over threads: one a thread, or blocks of particle_lanes consecutive
+// particles a thread whose arithmetic runs side by side (CPUs whose compiler vectorises the lanes:
+// math::host_lane_blocks).
+enum class ParticleLaunch { PerParticle, Blocks };
+inline constexpr int particle_lanes = 8;
+
+template <class ExecutionSpace>
+constexpr ParticleLaunch default_particle_launch() {
+  return math::host_lane_blocks && Kokkos::SpaceAccessibility<ExecutionSpace, Kokkos::HostSpace>::accessible
+             ? ParticleLaunch::Blocks
+             : ParticleLaunch::PerParticle;
+}
 
 template <class View>
 KOKKOS_INLINE_FUNCTION Vec3<real_t> load_vec3(const View& view, int p) {

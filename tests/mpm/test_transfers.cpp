@@ -239,6 +239,104 @@ void check_tiles_match_atomics() {
   }
 }
 
+// G2P in blocks of particles (CPUs) gives one thread a particle's state: the same terms in the same order for each
+// particle, so the two differ only where the compiler contracts a multiply-add differently in the vectorised lanes,
+// one rounding a term of the 27-term sums at most (27 eps of their absolute sums, within a few times each field's
+// largest entry); 64 eps of that allows it. The last block holds one particle and one particle sits outside the grid.
+template <class ExecutionSpace>
+void check_g2p_launches_agree() {
+  const double A[3][3] = {{0.1, -0.7, 0.2}, {0.7, 0.0, -0.3}, {-0.2, 0.3, -0.1}}, b[3] = {0.3, -0.2, 0.5};
+  const int n = 3001, outside = 5;
+  const real_t dt = real_t(0.01);
+  using Particles = ParticleViews<typename ExecutionSpace::memory_space>;
+  const auto run = [&](ParticleLaunch launch, real_t& speed) {
+    TransferSetup<ExecutionSpace> s(n, A, b, 0.5, 11);
+    Kokkos::deep_copy(Kokkos::subview(s.particles.x, outside, Kokkos::ALL), real_t(0.99));  // stencil past the grid
+    s.p2g(P2GStrategy::Atomic, true);
+    s.update();
+    Kokkos::View<real_t, typename ExecutionSpace::memory_space> max_speed("max_speed");
+    g2p(ExecutionSpace(), s.particles, s.nodes, s.grid, dt, true, s.problems, max_speed, launch);
+    Kokkos::deep_copy(speed, max_speed);
+    return s.particles;
+  };
+  real_t speed_per_particle = 0, speed_blocks = 0;
+  const Particles one = run(ParticleLaunch::PerParticle, speed_per_particle);
+  const Particles blocks = run(ParticleLaunch::Blocks, speed_blocks);
+  const auto expect_near = [&](const auto& a_view, const auto& b_view, const char* field) {
+    auto a = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), a_view);
+    auto c = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), b_view);
+    double scale = 0, worst = 0;
+    for (std::size_t i = 0; i < a.size(); ++i) {
+      scale = std::max(scale, std::fabs(double(a.data()[i])));
+      worst = std::max(worst, std::fabs(double(a.data()[i]) - double(c.data()[i])));
+    }
+    EXPECT_GT(scale, 0.0) << field;
+    EXPECT_LE(worst, 64 * eps * scale) << field;
+  };
+  expect_near(one.x, blocks.x, "x");
+  expect_near(one.v, blocks.v, "v");
+  expect_near(one.C, blocks.C, "C");
+  expect_near(one.F, blocks.F, "F");
+  EXPECT_NEAR(speed_blocks, speed_per_particle, 64 * eps * speed_per_particle);
+  auto x = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), blocks.x);
+  for (int d = 0; d < 3; ++d) EXPECT_EQ(x(outside, d), real_t(0.99)) << "the particle outside the grid moved";
+}
+
+// P2G in blocks of particles (CPUs) gives one thread a particle's grid and energies, with stress (F away from I,
+// dt > 0), for the atomic and the scatter-view strategies. Each node's terms are the same; their summation order
+// may differ (atomics, and the threads' shares of the particles), as in check_tiles_match_atomics, whose bound this
+// takes. The last block holds one particle and one particle sits outside the grid.
+template <class ExecutionSpace>
+void check_p2g_launches_agree(P2GStrategy strategy) {
+  using MemorySpace = typename ExecutionSpace::memory_space;
+  const double A[3][3] = {{0.1, -0.7, 0.2}, {0.7, 0.0, -0.3}, {-0.2, 0.3, -0.1}}, b[3] = {0.3, -0.2, 0.5};
+  const int n = 3001, outside = 5;
+  TransferSetup<ExecutionSpace> s(n, A, b, 0.5, 13);
+  auto F = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), s.particles.F);
+  std::mt19937_64 rng(14);
+  std::uniform_real_distribution<double> u(-0.2, 0.2);
+  for (int p = 0; p < n; ++p)
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) F(p, i, j) += real_t(u(rng));
+  Kokkos::deep_copy(s.particles.F, F);
+  Kokkos::deep_copy(Kokkos::subview(s.particles.x, outside, Kokkos::ALL), real_t(0.99));  // stencil past the grid
+  const auto run = [&](ParticleLaunch launch, Kokkos::View<double*, MemorySpace> energy) {
+    Kokkos::deep_copy(s.outside, 0);
+    const P2GParticle<MemorySpace> kernel{
+        s.particles,      s.grid,       elastic_material<real_t>(ElasticModel::FixedCorotated, 1e3, 0.3),
+        ExternalForces{}, real_t(0.01), true,
+        s.outside,        energy};
+    Kokkos::deep_copy(s.nodes, real_t(0));
+    if (strategy == P2GStrategy::Atomic) {
+      p2g_atomic(ExecutionSpace(), kernel, s.nodes, launch);
+    } else {
+      GridScatterView<ExecutionSpace, MemorySpace> scatter(s.nodes);
+      p2g_scatter(ExecutionSpace(), kernel, scatter, s.nodes, launch);
+    }
+    int outside_count = 0;
+    Kokkos::deep_copy(outside_count, s.outside);
+    EXPECT_EQ(outside_count, 1);
+    return Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), s.nodes);
+  };
+  Kokkos::View<double*, MemorySpace> energy_one("energy_one", n), energy_blocks("energy_blocks", n);
+  const auto one = run(ParticleLaunch::PerParticle, energy_one);
+  const auto blocks = run(ParticleLaunch::Blocks, energy_blocks);
+  double scale = 0, worst = 0;
+  for (int node = 0; node < s.grid.num_nodes(); ++node)
+    for (int c = 0; c < 4; ++c) {
+      scale = std::max(scale, std::fabs(double(one(node, c))));
+      worst = std::max(worst, std::fabs(double(blocks(node, c)) - double(one(node, c))));
+    }
+  EXPECT_GT(scale, 1.0);
+  EXPECT_LE(worst, 1e3 * eps * scale);
+  auto e1 = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), energy_one);
+  auto e2 = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), energy_blocks);
+  // The same SVD of the same F, inlined into two kernels whose multiply-adds the compiler may contract differently:
+  // a few roundings of the energy's O(1) terms.
+  for (int p = 0; p < n; ++p) EXPECT_NEAR(e1(p), e2(p), 64 * eps * std::fabs(e1(p))) << "particle " << p;
+  EXPECT_EQ(e2(outside), 0.0);
+}
+
 template <class ExecutionSpace>
 class Transfers : public ::testing::Test {};
 TYPED_TEST_SUITE(Transfers, EnabledBackends, BackendName);
@@ -259,6 +357,13 @@ TYPED_TEST(Transfers, ApicConservesMassMomentumAngularMomentumTiled) {
 }
 TYPED_TEST(Transfers, ApicReproducesAffineFieldTiled) { check_affine_reproduced<TypeParam>(P2GStrategy::Tiled); }
 TYPED_TEST(Transfers, TiledMatchesAtomicsWithEveryTileShape) { check_tiles_match_atomics<TypeParam>(); }
+TYPED_TEST(Transfers, G2PBlocksMatchOneThreadAParticle) { check_g2p_launches_agree<TypeParam>(); }
+TYPED_TEST(Transfers, P2GBlocksMatchOneThreadAParticleAtomic) {
+  check_p2g_launches_agree<TypeParam>(P2GStrategy::Atomic);
+}
+TYPED_TEST(Transfers, P2GBlocksMatchOneThreadAParticleScatterView) {
+  check_p2g_launches_agree<TypeParam>(P2GStrategy::ScatterView);
+}
 
 }  // namespace
 }  // namespace mpmrom::test
