@@ -14,6 +14,7 @@
 #include "core/light_launch.hpp"
 #include "mpm/bspline.hpp"
 #include "mpm/constitutive.hpp"
+#include "mpm/constitutive_lanes.hpp"
 #include "mpm/grid.hpp"
 #include "mpm/particles.hpp"
 
@@ -77,9 +78,9 @@ struct P2GParticle {
   }
 };
 
-// P2G's work for the particles [first, first + count) of a block (count <= particle_lanes, CPUs): the stencils and the
-// 27 nodes' shares computed side by side for the block (the lane loops vectorised; each particle's terms
-// P2GParticle's, in its order), the stress particle by particle, then the shares added particle by particle, so
+// P2G's work for the particles [first, first + count) of a block (count <= particle_lanes, CPUs): the stencils, the
+// stresses (kirchhoff_stress_lanes) and the 27 nodes' shares computed side by side for the block (the lane loops
+// vectorised; each particle's terms P2GParticle's, in its order), then the shares added particle by particle, so
 // that every node still receives its particles in increasing order.
 template <class MemorySpace, class Add>
 KOKKOS_INLINE_FUNCTION void p2g_block(const P2GParticle<MemorySpace>& kernel, int first, int count, const Add& add) {
@@ -93,16 +94,21 @@ KOKKOS_INLINE_FUNCTION void p2g_block(const P2GParticle<MemorySpace>& kernel, in
   for (int l = 0; l < L; ++l)  // lanes past the end repeat the block's first particle and add nothing
     for (int d = 0; d < 3; ++d) x[d][l] = particles.x(l < count ? first + l : first, d);
   for (int d = 0; d < 3; ++d) quadratic_weights_lanes<L>(x[d], grid.origin[d], grid.inv_dx, base[d], w[d], dw[d]);
-  // Per particle: its momentum, m C, dt times its external force, and -dt V tau (the stress: an SVD each).
-  real_t mass[L], momentum[3][L], affine[3][3][L], impulse[3][L], stress[3][3][L];
+  // Per particle: its momentum, m C, dt times its external force, and -dt V tau (the stresses across the lanes).
+  real_t mass[L], momentum[3][L], affine[3][3][L], impulse[3][L], stress[3][3][L], F[3][3][L], psi[L];
   for (int l = 0; l < L; ++l) {
     const int p = l < count ? first + l : first;
     const int b[3] = {base[0][l], base[1][l], base[2][l]};
     inside[l] = l < count && grid.stencil_inside(b);
-    if (l < count && !inside[l]) {
-      Kokkos::atomic_add(&kernel.outside(), 1);
-      if (with_energy) kernel.elastic_energy(p) = 0;  // the step fails: it left the grid
-    }
+    if (l < count && !inside[l]) Kokkos::atomic_add(&kernel.outside(), 1);
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) F[i][j][l] = particles.F(p, i, j);
+  }
+  kirchhoff_stress_lanes(kernel.material, F, stress, with_energy ? &psi : nullptr);
+  for (int l = 0; l < L; ++l) {
+    const int p = l < count ? first + l : first;
+    if (with_energy && l < count)  // a point that left the grid fails the step: no energy
+      kernel.elastic_energy(p) = inside[l] ? double(particles.volume(p)) * double(psi[l]) : 0.0;
     if (!inside[l]) {  // reads the grid's first stencil and adds nothing
       for (int d = 0; d < 3; ++d) base[d][l] = 0;
       mass[l] = 0;
@@ -115,14 +121,11 @@ KOKKOS_INLINE_FUNCTION void p2g_block(const P2GParticle<MemorySpace>& kernel, in
     const real_t m = particles.mass(p);
     mass[l] = m;
     for (int i = 0; i < 3; ++i) momentum[i][l] = m * particles.v(p, i);
-    real_t psi = 0;
-    const Mat3<real_t> tau = kirchhoff_stress(kernel.material, load_mat3(particles.F, p), with_energy ? &psi : nullptr);
     const real_t scale = -kernel.dt * particles.volume(p);
-    if (with_energy) kernel.elastic_energy(p) = double(particles.volume(p)) * double(psi);
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j) {
         affine[i][j][l] = kernel.apic ? m * particles.C(p, i, j) : real_t(0);
-        stress[i][j][l] = scale * tau(i, j);
+        stress[i][j][l] = scale * stress[i][j][l];
       }
     Vec3<real_t> dt_force = Vec3<real_t>::zero();
     for (int k = 0; k < kernel.external.count; ++k) {
