@@ -72,4 +72,19 @@ KOKKOS_INLINE_FUNCTION void quadratic_weights_lanes(const T (&x)[L], T origin, T
   }
 }
 
+// Node base + (a, b, c) of lane l's stencil (quadratic_weights_lanes' arrays): its weight, the weight's gradient and
+// the offset from the point to the node, in QuadraticStencil's weight, gradient and node_offset arithmetic.
+template <int L, class T>
+KOKKOS_INLINE_FUNCTION void stencil_node_lane(int a, int b, int c, int l, const T (&w)[3][3][L], const T (&dw)[3][3][L],
+                                              const int (&base)[3][L], const T (&x)[3][L], const Vec3<T>& origin, T dx,
+                                              T& weight, T (&gradient)[3], T (&offset)[3]) {
+  weight = w[0][a][l] * w[1][b][l] * w[2][c][l];
+  gradient[0] = dw[0][a][l] * w[1][b][l] * w[2][c][l];
+  gradient[1] = w[0][a][l] * dw[1][b][l] * w[2][c][l];
+  gradient[2] = w[0][a][l] * w[1][b][l] * dw[2][c][l];
+  offset[0] = origin[0] + T(base[0][l] + a) * dx - x[0][l];
+  offset[1] = origin[1] + T(base[1][l] + b) * dx - x[1][l];
+  offset[2] = origin[2] + T(base[2][l] + c) * dx - x[2][l];
+}
+
 }  // namespace mpmrom

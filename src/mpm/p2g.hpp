@@ -142,12 +142,8 @@ KOKKOS_INLINE_FUNCTION void p2g_block(const P2GParticle<MemorySpace>& kernel, in
         const int k = (a * 3 + b) * 3 + c;
         const real_t dx = grid.dx;
         MPMROM_SIMD for (int l = 0; l < L; ++l) {
-          const real_t weight = w[0][a][l] * w[1][b][l] * w[2][c][l];
-          const real_t g[3] = {dw[0][a][l] * w[1][b][l] * w[2][c][l], w[0][a][l] * dw[1][b][l] * w[2][c][l],
-                               w[0][a][l] * w[1][b][l] * dw[2][c][l]};
-          const real_t offset[3] = {grid.origin[0] + real_t(base[0][l] + a) * dx - x[0][l],
-                                    grid.origin[1] + real_t(base[1][l] + b) * dx - x[1][l],
-                                    grid.origin[2] + real_t(base[2][l] + c) * dx - x[2][l]};
+          real_t weight, g[3], offset[3];
+          stencil_node_lane(a, b, c, l, w, dw, base, x, grid.origin, dx, weight, g, offset);
           node_mass[k][l] = weight * mass[l];
           for (int i = 0; i < 3; ++i) {
             const real_t affine_offset =
