@@ -20,7 +20,7 @@ nlohmann::json to_json(const RuntimeInfo& info) {
 }
 
 const std::map<std::string, P2GStrategy> kP2GStrategies{
-    {"atomic", P2GStrategy::Atomic}, {"scatter", P2GStrategy::ScatterView}, {"tiled", P2GStrategy::Tiled}};
+    {"atomic", P2GStrategy::Atomic}, {"scatter", P2GStrategy::Scatter}, {"tiled", P2GStrategy::Tiled}};
 const char* const kP2GHelp =
     "Particle-to-grid accumulation: scatter (per-thread grid copies; bitwise reproducible; default on CPUs), atomic "
     "(straight into the grid; default on GPUs) or tiled (teams sum into shared-memory tiles, then the grid)";

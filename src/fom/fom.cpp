@@ -61,7 +61,7 @@ ElasticMaterial<real_t> material_for_scene(const Scene& scene) {
 }
 
 P2GStrategy default_p2g_strategy() {
-  return Kokkos::SpaceAccessibility<Kokkos::HostSpace, FomSolver::MemorySpace>::accessible ? P2GStrategy::ScatterView
+  return Kokkos::SpaceAccessibility<Kokkos::HostSpace, FomSolver::MemorySpace>::accessible ? P2GStrategy::Scatter
                                                                                            : P2GStrategy::Atomic;
 }
 
@@ -118,7 +118,7 @@ FomSolver::FomSolver(const Scene& scene, P2GStrategy strategy, const P2GTiling& 
       wave_speed_(stable_time_step_wave_speed(material_, static_cast<real_t>(scene.material.density))),
       outside_("mpmrom::fom::outside"),
       problems_("mpmrom::fom::problems"),
-      step_max_speed_("mpmrom::fom::step_max_speed"),
+      step_g2p_("mpmrom::fom::step_g2p"),
       step_grid_work_("mpmrom::fom::step_grid_work"),
       step_force_power_("mpmrom::fom::step_force_power"),
       step_energy_("mpmrom::fom::step_energy"),
@@ -143,7 +143,8 @@ FomSolver::FomSolver(const Scene& scene, P2GStrategy strategy, const P2GTiling& 
   const int num_forces = static_cast<int>(scene.forces.size());
   particles_ = ParticleViews<MemorySpace>(n, num_forces);
   nodes_ = GridNodeView<MemorySpace>("mpmrom::fom::grid_nodes", grid_.num_nodes());
-  if (strategy_ == P2GStrategy::ScatterView) scatter_ = GridScatterView<ExecutionSpace, MemorySpace>(nodes_);
+  reach_ = NodeBox::whole(grid_);
+  if (strategy_ == P2GStrategy::Scatter) copies_ = GridCopies<ExecutionSpace>(grid_.num_nodes());
 
   auto X = Kokkos::create_mirror_view(particles_.X);
   auto v = Kokkos::create_mirror_view(particles_.v);
@@ -239,24 +240,33 @@ void FomSolver::step(double dt) {
     elastic_energy_ = Kokkos::View<double*, MemorySpace>("mpmrom::fom::elastic_energy", particles_.size());
   using EnergyView = Kokkos::View<double*, MemorySpace>;
   const EnergyView energy_out = checking ? elastic_energy_ : EnergyView();
-  const P2GParticle<MemorySpace> kernel{particles_, grid_,    material_, external, static_cast<real_t>(dt),
-                                        apic,       outside_, energy_out};
+  const P2GParticle<MemorySpace> kernel{particles_, grid_,    material_,  external, static_cast<real_t>(dt),
+                                        apic,       outside_, energy_out, reach_};
 
-  Kokkos::deep_copy(space, nodes_, real_t(0));
+  // Every pass over the grid covers only the nodes the particles' stencils reach; the others stay zero.
+  zero_box(space, nodes_, written_, grid_);
+  written_ = reach_;
   switch (strategy_) {
     case P2GStrategy::Atomic: p2g_atomic(space, kernel, nodes_); break;
-    case P2GStrategy::ScatterView: p2g_scatter(space, kernel, scatter_, nodes_); break;
+    case P2GStrategy::Scatter: p2g_scatter(space, kernel, copies_, nodes_, reach_); break;
     case P2GStrategy::Tiled: p2g_tiled(space, kernel, nodes_, tiling_); break;
   }
   if (checking) particle_energy_total(space, particles_, elastic_energy_, step_energy_);  // before G2P moves v
-  grid_update(space, nodes_, grid_, gravity, boundary, static_cast<real_t>(dt), step_grid_work_);
-  g2p(space, particles_, nodes_, grid_, static_cast<real_t>(dt), apic, problems_, step_max_speed_);
+  grid_update(space, nodes_, grid_, reach_, gravity, boundary, static_cast<real_t>(dt), step_grid_work_);
+  g2p(space, particles_, nodes_, grid_, static_cast<real_t>(dt), apic, problems_, step_g2p_);
   external_force_power(space, particles_, external, step_force_power_);
-  collect_step_diagnostics(space, outside_, problems_, step_max_speed_, step_grid_work_, step_force_power_,
-                           step_energy_, step_diagnostics_);
+  collect_step_diagnostics(space, outside_, problems_, step_g2p_, step_grid_work_, step_force_power_, step_energy_,
+                           step_diagnostics_);
   Kokkos::deep_copy(step_diagnostics_host_, step_diagnostics_);  // the step's one wait
   const auto& diagnostics = step_diagnostics_host_;
   max_speed_ = static_cast<real_t>(diagnostics(step_max_speed));
+  NodeBox reached;
+  for (int d = 0; d < 3; ++d) {
+    reached.lo[d] = static_cast<int>(diagnostics(step_box + d));
+    reached.hi[d] = static_cast<int>(diagnostics(step_box + 3 + d));
+  }
+  // One node of margin: P2G's vectorised blocks may round a point's first stencil node differently from G2P.
+  reach_ = padded(reached, 1, grid_);
   const double grid_work = diagnostics(step_grid_work), force_work = dt * diagnostics(step_force_power);
 
   const auto fail = [&](FomFailureCause cause, const std::string& detail) {

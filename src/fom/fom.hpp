@@ -68,7 +68,8 @@ class FomSolver {
   long steps() const { return steps_; }
   std::size_t num_particles() const { return particles_.size(); }
   const GridGeometry<real_t>& grid() const { return grid_; }
-  // The fields in storage order: point s of these Views is point sample_index(s) of the scene.
+  // The fields in storage order: point s of these Views is point sample_index(s) of the scene. Positions set between
+  // steps must stay within the nodes the last step's positions reach (a point that leaves them stops the next step).
   const ParticleViews<MemorySpace>& particles() const { return particles_; }
   std::size_t sample_index(std::size_t s) const { return sample_of_slot_[s]; }
   const GridNodeView<MemorySpace>& grid_nodes() const { return nodes_; }
@@ -112,12 +113,15 @@ class FomSolver {
   real_t wave_speed_;
   ParticleViews<MemorySpace> particles_;
   GridNodeView<MemorySpace> nodes_;
-  GridScatterView<ExecutionSpace, MemorySpace> scatter_;
+  GridCopies<ExecutionSpace> copies_;  // host backends' scatter strategy
+  // The nodes the next step prepares (the whole grid until a step has run: callers may set the first state through
+  // particles()), and those the last step left non-zero.
+  NodeBox reach_, written_ = NodeBox::none();
   std::vector<std::size_t> sample_of_slot_;
   Kokkos::View<int, MemorySpace> outside_;
   ParticleProblemCounts<MemorySpace> problems_;
   // Each step's reductions land on the device and come back in one copy, so the host waits once per step.
-  Kokkos::View<real_t, MemorySpace> step_max_speed_;
+  G2PSummaryView<MemorySpace> step_g2p_;
   Kokkos::View<double, MemorySpace> step_grid_work_, step_force_power_, step_energy_;
   // The periodic energy check rides on the next step's P2G, which computes each point's SVD anyway: V_p Psi(F_p).
   bool energy_check_due_ = false;

@@ -3,6 +3,7 @@
 #pragma once
 
 #include "mpm/grid.hpp"
+#include "mpm/node_box.hpp"
 
 namespace mpmrom {
 
@@ -55,14 +56,17 @@ KOKKOS_INLINE_FUNCTION Vec3<real_t> constrained_node_velocity(Vec3<real_t> v, co
 // Writes into `work` (a device View) the work done on the grid by gravity and the boundary conditions in this step,
 // sum_i m_i (v_i - p_i / m_i).v_i over the updated velocities v_i: zero for resting walls and held nodes (the impulse
 // is normal to, or multiplies, a zero velocity), the input of moving Dirichlet regions and of gravity otherwise (the
-// FOM's energy budget). Summed in double: it is compared with small budgets in float builds too.
+// FOM's energy budget). Summed in double: it is compared with small budgets in float builds too. Updates the nodes of
+// `box`, outside which every node is empty (zero mass and momentum, which the update leaves zero).
 template <class ExecutionSpace, class MemorySpace>
 void grid_update(const ExecutionSpace& space, const GridNodeView<MemorySpace>& nodes, const GridGeometry<real_t>& grid,
-                 const Vec3<real_t>& gravity, const GridBoundary& boundary, real_t dt,
+                 const NodeBox& box, const Vec3<real_t>& gravity, const GridBoundary& boundary, real_t dt,
                  const Kokkos::View<double, MemorySpace>& work) {
   Kokkos::parallel_reduce(
-      "mpmrom::fom::grid_update", Kokkos::RangePolicy<ExecutionSpace>(space, 0, grid.num_nodes()),
-      KOKKOS_LAMBDA(const int node, double& node_work) {
+      "mpmrom::fom::grid_update",
+      Kokkos::RangePolicy<ExecutionSpace, Kokkos::IndexType<long>>(space, 0, box.num_nodes()),
+      KOKKOS_LAMBDA(const long entry, double& node_work) {
+        const int node = box.node(entry, grid);
         const real_t m = nodes(node, 0);
         if (m <= real_t(0)) {
           for (int d = 1; d < 4; ++d) nodes(node, d) = 0;

@@ -1,14 +1,14 @@
 // Particle-to-grid transfer (APIC or PIC) with the internal (stress) and external forces folded into the grid momentum:
 //   m_i  = sum_p w_ip m_p
 //   mv_i = sum_p w_ip (m_p v_p + m_p C_p (x_i - x_p)) + dt (w_ip f_p - V_p^0 tau_p grad w_ip)
-// with tau = P F^T the Kirchhoff stress. Three interchangeable accumulation strategies: atomics on the grid; a Kokkos
-// ScatterView (duplicated per thread on CPUs, atomic on GPUs); or tiles: a team sums its particles into a box of
-// nodes in scratch (shared) memory, then adds the box to the grid, so that particles stored near each other (the
+// with tau = P F^T the Kirchhoff stress. Three interchangeable accumulation strategies: atomics on the grid; scatter:
+// per-thread copies of the grid on CPUs (grid_copies.hpp), atomics on GPUs; or tiles: a team sums its particles into a
+// box of nodes in scratch (shared) memory, then adds the box to the grid, so that particles stored near each other (the
 // FOM can store them brick by brick) cost a few global atomics per node instead of one per particle and node.
-// Parallelism: one thread per particle (atomic, scatter view); a team per block of consecutive particles (tiles).
+// Parallelism: one thread per particle, or a block of consecutive particles on CPUs (atomic, scatter); a team per
+// block of consecutive particles (tiles).
 #pragma once
 
-#include <Kokkos_ScatterView.hpp>
 #include <type_traits>
 
 #include "core/light_launch.hpp"
@@ -16,6 +16,7 @@
 #include "mpm/constitutive.hpp"
 #include "mpm/constitutive_lanes.hpp"
 #include "mpm/grid.hpp"
+#include "mpm/grid_copies.hpp"
 #include "mpm/particles.hpp"
 
 namespace mpmrom {
@@ -28,7 +29,7 @@ struct ExternalForces {
   int count = 0;
 };
 
-enum class P2GStrategy { Atomic, ScatterView, Tiled };
+enum class P2GStrategy { Atomic, Scatter, Tiled };
 
 // The per-particle work of P2G, shared by both accumulation strategies.
 template <class MemorySpace>
@@ -39,16 +40,19 @@ struct P2GParticle {
   ExternalForces external;
   real_t dt;
   bool apic;
-  Kokkos::View<int, MemorySpace> outside;  // counts particles whose stencil left the grid
+  Kokkos::View<int, MemorySpace> outside;  // counts particles whose stencil left `reach`
   // (particles): V_p Psi(F_p) of the state P2G reads, written when not empty (the FOM's energy-checking steps)
   Kokkos::View<double*, MemorySpace> elastic_energy;
+  // The grid nodes the step prepares (NodeBox::whole, or the box the last G2P's positions reach): a particle whose
+  // stencil leaves it adds nothing and counts as outside; the FOM then stops, as for a point that left the grid.
+  NodeBox reach;
 
   template <class Add>
   KOKKOS_INLINE_FUNCTION void operator()(int p, const Add& add) const {
     const Vec3<real_t> x = load_vec3(particles.x, p);
     const auto s = quadratic_stencil(x, grid.origin, grid.inv_dx);
     const bool with_energy = elastic_energy.extent(0) > 0;
-    if (!grid.stencil_inside(s.base)) {
+    if (!reach.holds_stencil(s.base)) {
       Kokkos::atomic_add(&outside(), 1);
       if (with_energy) elastic_energy(p) = 0;  // the step fails: it left the grid
       return;
@@ -99,7 +103,7 @@ KOKKOS_INLINE_FUNCTION void p2g_block(const P2GParticle<MemorySpace>& kernel, in
   for (int l = 0; l < L; ++l) {
     const int p = l < count ? first + l : first;
     const int b[3] = {base[0][l], base[1][l], base[2][l]};
-    inside[l] = l < count && grid.stencil_inside(b);
+    inside[l] = l < count && kernel.reach.holds_stencil(b);
     if (l < count && !inside[l]) Kokkos::atomic_add(&kernel.outside(), 1);
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j) F[i][j][l] = particles.F(p, i, j);
@@ -153,20 +157,38 @@ KOKKOS_INLINE_FUNCTION void p2g_block(const P2GParticle<MemorySpace>& kernel, in
           }
         }
       }
-  for (int l = 0; l < count; ++l) {
-    if (!inside[l]) continue;
-    for (int k = 0; k < 27; ++k) {
-      const int ijk[3] = {base[0][l] + k / 9, base[1][l] + (k / 3) % 3, base[2][l] + k % 3};
-      const Vec3<real_t> share{{node_momentum[k][0][l], node_momentum[k][1][l], node_momentum[k][2][l]}};
-      add(grid.index(ijk[0], ijk[1], ijk[2]), ijk, node_mass[k][l], share);
+  if constexpr (Add::adds_rows) {  // a row of the stencil is three contiguous nodes: twelve values at once
+    for (int l = 0; l < count; ++l) {
+      if (!inside[l]) continue;
+      for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b) {
+          real_t row[12];
+          for (int c = 0; c < 3; ++c) {
+            const int k = (a * 3 + b) * 3 + c;
+            row[4 * c] = node_mass[k][l];
+            for (int i = 0; i < 3; ++i) row[4 * c + 1 + i] = node_momentum[k][i][l];
+          }
+          add.add_row(grid.index(base[0][l] + a, base[1][l] + b, base[2][l]), row);
+        }
+    }
+  } else {
+    for (int l = 0; l < count; ++l) {
+      if (!inside[l]) continue;
+      for (int k = 0; k < 27; ++k) {
+        const int ijk[3] = {base[0][l] + k / 9, base[1][l] + (k / 3) % 3, base[2][l] + k % 3};
+        const Vec3<real_t> share{{node_momentum[k][0][l], node_momentum[k][1][l], node_momentum[k][2][l]}};
+        add(grid.index(ijk[0], ijk[1], ijk[2]), ijk, node_mass[k][l], share);
+      }
     }
   }
 }
 
-// Accumulators: add(node, (i, j, k) of node, mass, momentum) sums one particle's share into one node.
+// Accumulators: add(node, (i, j, k) of node, mass, momentum) sums one particle's share into one node; those with
+// adds_rows also take a stencil row at once (GridCopyAdd).
 template <class MemorySpace>
 struct AtomicGridAdd {
   GridNodeView<MemorySpace> nodes;
+  static constexpr bool adds_rows = false;
   KOKKOS_INLINE_FUNCTION void operator()(int node, const int*, real_t mass, const Vec3<real_t>& momentum) const {
 #if defined(__CUDA_ARCH__) && (__CUDA_ARCH__ >= 900)
     // Compute capability 9.0 adds a float4 in one atomic: a quarter of the L2 atomic operations that bound P2G.
@@ -182,20 +204,12 @@ struct AtomicGridAdd {
   }
 };
 
-template <class Access>
-struct ScatterGridAdd {
-  Access access;  // a thread's view of the ScatterView, made in the work item
-  KOKKOS_INLINE_FUNCTION void operator()(int node, const int*, real_t mass, const Vec3<real_t>& momentum) const {
-    access(node, 0) += mass;
-    for (int d = 0; d < 3; ++d) access(node, d + 1) += momentum[d];
-  }
-};
-
 // A box of nodes [lo, lo + extent) in team scratch memory, one component after the other (mass, then momentum x,
 // y, z), so that the threads of a team that add to neighbouring nodes touch neighbouring banks.
 template <class ScratchView>
 struct TileGridAdd {
   ScratchView tile;
+  static constexpr bool adds_rows = false;
   int lo[3];
   int extent[3];
   int volume;
@@ -246,23 +260,20 @@ void p2g_atomic(const ExecutionSpace& space, const P2GParticle<MemorySpace>& ker
       "mpmrom::fom::p2g_atomic", space, kernel, launch, KOKKOS_LAMBDA() { return add; });
 }
 
-template <class ExecutionSpace, class MemorySpace>
-using GridScatterView = Kokkos::Experimental::ScatterView<real_t* [4], typename GridNodeView<MemorySpace>::array_layout,
-                                                          ExecutionSpace, Kokkos::Experimental::ScatterSum>;
-
-// P2G through a ScatterView (kept by the caller across steps so its per-thread copies are allocated once), then
-// contributed into `nodes`, which the caller has zeroed.
+// P2G through the threads' grid copies (host backends), summed into `nodes` over `box`, which holds every stencil of
+// a particle inside the grid; on devices, atomics into `nodes`, which the caller has zeroed over `box`.
 template <class ExecutionSpace, class MemorySpace>
 void p2g_scatter(const ExecutionSpace& space, const P2GParticle<MemorySpace>& kernel,
-                 GridScatterView<ExecutionSpace, MemorySpace>& scatter, const GridNodeView<MemorySpace>& nodes,
+                 const GridCopies<ExecutionSpace>& copies, const GridNodeView<MemorySpace>& nodes, const NodeBox& box,
                  ParticleLaunch launch = default_particle_launch<ExecutionSpace>()) {
-  scatter.reset();
-  const auto scatter_copy = scatter;
-  p2g_launch(
-      "mpmrom::fom::p2g_scatter", space, kernel, launch,
-      KOKKOS_LAMBDA() { return ScatterGridAdd<decltype(scatter_copy.access())>{scatter_copy.access()}; });
-  GridNodeView<MemorySpace> destination = nodes;  // Kokkos 3.4's contribute() takes a non-const View reference
-  Kokkos::Experimental::contribute(destination, scatter);
+  if constexpr (Kokkos::SpaceAccessibility<ExecutionSpace, Kokkos::HostSpace>::accessible) {
+    p2g_launch("mpmrom::fom::p2g_scatter", space, kernel, launch, copies.make_add());
+    copies.sum_into(space, nodes, box, kernel.grid);
+  } else {
+    (void)copies;
+    (void)box;
+    p2g_atomic(space, kernel, nodes, launch);
+  }
 }
 
 // Tiled P2G's shape: threads per team, consecutive particles per team, and the largest box (in nodes) that a team
@@ -315,7 +326,7 @@ void p2g_tiled(const ExecutionSpace& space, const P2GParticle<MemorySpace>& kern
         team.team_barrier();
         Kokkos::parallel_for(Kokkos::TeamThreadRange(team, first, last), [&](const int p) {
           const auto s = quadratic_stencil(load_vec3(kernel.particles.x, p), grid.origin, grid.inv_dx);
-          if (!grid.stencil_inside(s.base)) return;
+          if (!kernel.reach.holds_stencil(s.base)) return;
           for (int d = 0; d < 3; ++d) {
             Kokkos::atomic_fetch_min(&box(d), s.base[d]);
             Kokkos::atomic_fetch_max(&box(3 + d), s.base[d]);

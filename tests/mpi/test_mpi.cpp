@@ -143,7 +143,7 @@ TEST_F(Mpi, SharedSweepEqualsOneProcess) {
   // Host backends sum P2G's per-thread grids in a fixed order: bitwise reproducible, so bitwise equal. GPUs use
   // atomics, whose order changes from run to run even on one process (docs/reliability.md: up to 24 eps of a field's
   // largest value over 280 steps; these runs take fewer): 100 eps there.
-  const bool reproducible = default_p2g_strategy() == P2GStrategy::ScatterView;
+  const bool reproducible = default_p2g_strategy() == P2GStrategy::Scatter;
   const double bound = reproducible ? 0.0 : 100 * std::numeric_limits<real_t>::epsilon();
   const auto expect_close = [bound](const std::vector<double>& a, const std::vector<double>& b, const char* field) {
     ASSERT_EQ(a.size(), b.size()) << field;
