@@ -41,24 +41,56 @@ struct G2PUpdate {
   real_t inverse_inertia;  // D_p^{-1} = 4 / dx^2 for quadratic B-splines (Jiang et al. 2015)
   bool apic;
 
-  // Stores the new state of particle p and adds its speed and new stencil to `summary`.
-  KOKKOS_INLINE_FUNCTION void operator()(int p, const Vec3<real_t>& x, const Vec3<real_t>& v,
-                                         const Mat3<real_t>& affine, const Mat3<real_t>& velocity_gradient,
-                                         G2PSummary& summary) const {
-    const Mat3<real_t> F = (Mat3<real_t>::identity() + dt * velocity_gradient) * load_mat3(particles.F, p);
-    const Vec3<real_t> x_next = x + dt * v;
-    const real_t J = determinant(F);
-    if (!math::isfinite(v[0] + v[1] + v[2] + x_next[0] + x_next[1] + x_next[2] + J)) {
-      Kokkos::atomic_add(&problems(problem_not_finite), 1);
-    } else {
-      if (!(J > real_t(0))) Kokkos::atomic_add(&problems(problem_inverted), 1);
-      summary.box.include_stencil(quadratic_stencil(x_next, grid.origin, grid.inv_dx).base);
+  // Stores the new state of the particles first + l, l < count with inside[l], from their stencil sums, computed
+  // side by side across the L lanes (the lane loop vectorised on CPUs; L = 1 on GPUs), and adds their speeds and new
+  // stencils to `summary`. Lanes past count hold copies of a real particle's values and store nothing.
+  template <int L>
+  KOKKOS_INLINE_FUNCTION void store_lanes(int first, int count, const bool (&inside)[L], const real_t (&x)[3][L],
+                                          const real_t (&v)[3][L], const real_t (&affine)[3][3][L],
+                                          const real_t (&velocity_gradient)[3][3][L], G2PSummary& summary) const {
+    real_t F[3][3][L], x_next[3][L], J[L], speed[L];
+    int base[3][L];
+    for (int l = 0; l < L; ++l)
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) F[i][j][l] = particles.F(l < count ? first + l : first, i, j);
+    MPMROM_SIMD for (int l = 0; l < L; ++l) {
+      real_t A[3][3], G[3][3];  // F <- (I + dt grad v) F
+      for (int i = 0; i < 3; ++i)
+        for (int k = 0; k < 3; ++k) A[i][k] = (i == k ? real_t(1) : real_t(0)) + dt * velocity_gradient[i][k][l];
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) G[i][j] = A[i][0] * F[0][j][l] + A[i][1] * F[1][j][l] + A[i][2] * F[2][j][l];
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) F[i][j][l] = G[i][j];
+      J[l] = G[0][0] * (G[1][1] * G[2][2] - G[1][2] * G[2][1]) - G[0][1] * (G[1][0] * G[2][2] - G[1][2] * G[2][0]) +
+             G[0][2] * (G[1][0] * G[2][1] - G[1][1] * G[2][0]);
+      speed[l] = math::sqrt(v[0][l] * v[0][l] + v[1][l] * v[1][l] + v[2][l] * v[2][l]);
+      for (int d = 0; d < 3; ++d) {
+        x_next[d][l] = x[d][l] + dt * v[d][l];
+        // quadratic_stencil's first node; a far-away or non-finite position (which stops the run) floors safely
+        const real_t s = (x_next[d][l] - grid.origin[d]) * grid.inv_dx - real_t(0.5);
+        base[d][l] = static_cast<int>(math::floor(s > real_t(-1e9) && s < real_t(1e9) ? s : real_t(0)));
+      }
     }
-    store_vec3(particles.v, p, v);
-    store_mat3(particles.C, p, apic ? inverse_inertia * affine : Mat3<real_t>::zero());
-    store_mat3(particles.F, p, F);
-    store_vec3(particles.x, p, x_next);
-    summary.max_speed = math::max(summary.max_speed, norm(v));
+    for (int l = 0; l < count; ++l) {
+      if (!inside[l]) continue;
+      const int p = first + l;
+      if (!math::isfinite(v[0][l] + v[1][l] + v[2][l] + x_next[0][l] + x_next[1][l] + x_next[2][l] + J[l])) {
+        Kokkos::atomic_add(&problems(problem_not_finite), 1);
+      } else {
+        if (!(J[l] > real_t(0))) Kokkos::atomic_add(&problems(problem_inverted), 1);
+        const int b[3] = {base[0][l], base[1][l], base[2][l]};
+        summary.box.include_stencil(b);
+      }
+      for (int i = 0; i < 3; ++i) {
+        particles.v(p, i) = v[i][l];
+        particles.x(p, i) = x_next[i][l];
+        for (int j = 0; j < 3; ++j) {
+          particles.C(p, i, j) = apic ? inverse_inertia * affine[i][j][l] : real_t(0);
+          particles.F(p, i, j) = F[i][j][l];
+        }
+      }
+      summary.max_speed = math::max(summary.max_speed, speed[l]);
+    }
   }
 };
 
@@ -102,12 +134,20 @@ struct G2PPerParticle : G2PReduction {
           affine += w * outer(vi, s.node_offset(a, b, c, x, grid.origin, grid.dx));
           velocity_gradient += outer(vi, s.gradient(a, b, c));
         }
-    update(p, x, v, affine, velocity_gradient, summary);
+    const bool inside[1] = {true};
+    real_t x1[3][1], v1[3][1], affine1[3][3][1], gradient1[3][3][1];
+    for (int i = 0; i < 3; ++i) {
+      x1[i][0] = x[i];
+      v1[i][0] = v[i];
+      for (int j = 0; j < 3; ++j) affine1[i][j][0] = affine(i, j), gradient1[i][j][0] = velocity_gradient(i, j);
+    }
+    update.store_lanes(p, 1, inside, x1, v1, affine1, gradient1, summary);
   }
 };
 
 // The stencil sums of particle_lanes consecutive particles side by side: each lane's sums are G2PPerParticle's, term
-// for term, and only the lane loops run vectorised; the new state is then stored particle by particle.
+// for term, and only the lane loops run vectorised; so is the new state (store_lanes), then stored particle by
+// particle.
 template <class MemorySpace>
 struct G2PBlocks : G2PReduction {
   G2PUpdate<MemorySpace> update;
@@ -153,13 +193,7 @@ struct G2PBlocks : G2PReduction {
             }
           }
         }
-    for (int l = 0; l < count; ++l) {
-      if (!inside[l]) continue;
-      Mat3<real_t> A, G;
-      for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j) A(i, j) = affine[i][j][l], G(i, j) = gradient[i][j][l];
-      update(first + l, {{x[0][l], x[1][l], x[2][l]}}, {{v[0][l], v[1][l], v[2][l]}}, A, G, summary);
-    }
+    update.store_lanes(first, count, inside, x, v, affine, gradient, summary);
   }
 };
 
