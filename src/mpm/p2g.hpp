@@ -84,8 +84,8 @@ struct P2GParticle {
 
 // P2G's work for the particles [first, first + count) of a block (count <= particle_lanes, CPUs): the stencils, the
 // stresses (kirchhoff_stress_lanes) and the 27 nodes' shares computed side by side for the block (the lane loops
-// vectorised; each particle's terms P2GParticle's, in its order), then the shares added particle by particle, so
-// that every node still receives its particles in increasing order.
+// vectorised; each particle's shares P2GParticle's, factored by axis), then the shares added particle by particle,
+// so that every node still receives its particles in increasing order.
 template <class MemorySpace, class Add>
 KOKKOS_INLINE_FUNCTION void p2g_block(const P2GParticle<MemorySpace>& kernel, int first, int count, const Add& add) {
   constexpr int L = particle_lanes;
@@ -138,25 +138,39 @@ KOKKOS_INLINE_FUNCTION void p2g_block(const P2GParticle<MemorySpace>& kernel, in
     }
     for (int i = 0; i < 3; ++i) impulse[i][l] = dt_force[i];
   }
-  // Every node's share for every lane: w m and w (m v + m C (x_i - x_p) + dt f) - dt V tau grad w.
+  // Every node's share for every lane: w m and w (m v + m C (x_i - x_p) + dt f) - dt V tau grad w. The weight, its
+  // gradient and the offset x_i - x_p factor by axis (w = w0 w1 w2, offset component d from axis d's node alone), so
+  // with P = m v + dt f, A = m C and S = -dt V tau the share of node (a, b, c) is w2 X + w0 w1 Z(c), where
+  //   X = w0 w1 (P + A_0 o0 + A_1 o1) + S_0 dw0 w1 + S_1 w0 dw1 (per a, b) and Z(c) = w2 A_2 o2 + S_2 dw2 (per c):
+  // a third of the arithmetic of the node-by-node sum (A_j, S_j: column j).
+  const real_t dx = grid.dx;
+  real_t offset[3][3][L], z[3][3][L], mass_w2[3][L];  // offset[axis][node along it][lane], z[c][component][lane]
+  MPMROM_SIMD for (int l = 0; l < L; ++l) {
+    for (int d = 0; d < 3; ++d)
+      for (int a = 0; a < 3; ++a) offset[d][a][l] = grid.origin[d] + real_t(base[d][l] + a) * dx - x[d][l];
+    for (int c = 0; c < 3; ++c) {
+      mass_w2[c][l] = mass[l] * w[2][c][l];
+      for (int i = 0; i < 3; ++i)
+        z[c][i][l] = w[2][c][l] * (affine[i][2][l] * offset[2][c][l]) + stress[i][2][l] * dw[2][c][l];
+    }
+  }
   real_t node_mass[27][L], node_momentum[27][3][L];
   for (int a = 0; a < 3; ++a)
-    for (int b = 0; b < 3; ++b)
-      for (int c = 0; c < 3; ++c) {
-        const int k = (a * 3 + b) * 3 + c;
-        const real_t dx = grid.dx;
-        MPMROM_SIMD for (int l = 0; l < L; ++l) {
-          real_t weight, g[3], offset[3];
-          stencil_node_lane(a, b, c, l, w, dw, base, x, grid.origin, dx, weight, g, offset);
-          node_mass[k][l] = weight * mass[l];
-          for (int i = 0; i < 3; ++i) {
-            const real_t affine_offset =
-                affine[i][0][l] * offset[0] + affine[i][1][l] * offset[1] + affine[i][2][l] * offset[2];
-            const real_t stress_gradient = stress[i][0][l] * g[0] + stress[i][1][l] * g[1] + stress[i][2][l] * g[2];
-            node_momentum[k][i][l] = weight * (momentum[i][l] + affine_offset + impulse[i][l]) + stress_gradient;
-          }
+    for (int b = 0; b < 3; ++b) {
+      MPMROM_SIMD for (int l = 0; l < L; ++l) {
+        const real_t w01 = w[0][a][l] * w[1][b][l];
+        real_t X[3];
+        for (int i = 0; i < 3; ++i)
+          X[i] = w01 * (momentum[i][l] + impulse[i][l] + affine[i][0][l] * offset[0][a][l] +
+                        affine[i][1][l] * offset[1][b][l]) +
+                 stress[i][0][l] * (dw[0][a][l] * w[1][b][l]) + stress[i][1][l] * (w[0][a][l] * dw[1][b][l]);
+        for (int c = 0; c < 3; ++c) {
+          const int k = (a * 3 + b) * 3 + c;
+          node_mass[k][l] = w01 * mass_w2[c][l];
+          for (int i = 0; i < 3; ++i) node_momentum[k][i][l] = w[2][c][l] * X[i] + w01 * z[c][i][l];
         }
       }
+    }
   if constexpr (Add::adds_rows) {  // a row of the stencil is three contiguous nodes: twelve values at once
     for (int l = 0; l < count; ++l) {
       if (!inside[l]) continue;
