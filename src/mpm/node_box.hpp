@@ -1,6 +1,6 @@
 // The box of grid nodes that the particles' stencils reach. The FOM's passes over the grid (zeroing it, summing the
 // threads' copies, the grid update) run over this box instead of the whole grid: on the benchmark cylinders the body
-// and its stencils fill about 6 % of the grid, whose walls leave room for the motion.
+// and its stencils fill about 7 % of the grid, whose walls leave room for the motion.
 // Parallelism contract: value type, used by one thread at a time; for_each_box_node runs one thread per node.
 #pragma once
 
