@@ -248,7 +248,7 @@ void FomSolver::step(double dt) {
   written_ = reach_;
   switch (strategy_) {
     case P2GStrategy::Atomic: p2g_atomic(space, kernel, nodes_); break;
-    case P2GStrategy::Scatter: p2g_scatter(space, kernel, copies_, nodes_, reach_); break;
+    case P2GStrategy::Scatter: p2g_scatter(space, kernel, copies_, nodes_); break;
     case P2GStrategy::Tiled: p2g_tiled(space, kernel, nodes_, tiling_); break;
   }
   if (checking) particle_energy_total(space, particles_, elastic_energy_, step_energy_);  // before G2P moves v

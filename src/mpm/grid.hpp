@@ -27,7 +27,7 @@ struct GridGeometry {
   // True when the 3x3x3 stencil starting at `base` lies inside the grid.
   KOKKOS_INLINE_FUNCTION bool stencil_inside(const int base[3]) const {
     for (int d = 0; d < 3; ++d)
-      if (base[d] < 0 || base[d] + 2 >= dims[d]) return false;
+      if (base[d] < 0 || long(base[d]) + 2 >= dims[d]) return false;  // long: a far point's base may be INT_MAX
     return true;
   }
 };

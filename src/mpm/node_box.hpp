@@ -26,14 +26,14 @@ struct NodeBox {
   // True when the 3x3x3 stencil whose first node is `base` lies inside the box.
   KOKKOS_INLINE_FUNCTION bool holds_stencil(const int base[3]) const {
     for (int d = 0; d < 3; ++d)
-      if (base[d] < lo[d] || base[d] + 2 > hi[d]) return false;
+      if (base[d] < lo[d] || long(base[d]) + 2 > hi[d]) return false;  // long: a far point's base may be INT_MAX
     return true;
   }
   // Adds the 3x3x3 stencil whose first node is `base`.
   KOKKOS_INLINE_FUNCTION void include_stencil(const int base[3]) {
     for (int d = 0; d < 3; ++d) {
       lo[d] = math::min(lo[d], base[d]);
-      hi[d] = math::max(hi[d], base[d] + 2);
+      hi[d] = math::max(hi[d], base[d] + 2);  // bases come from clamped coordinates (G2P): no overflow
     }
   }
   // The grid node of entry e of the box, entries numbered with the last axis fastest (as the grid's own nodes).

@@ -9,6 +9,7 @@
 // block of consecutive particles (tiles).
 #pragma once
 
+#include <stdexcept>
 #include <type_traits>
 
 #include "core/light_launch.hpp"
@@ -274,18 +275,20 @@ void p2g_atomic(const ExecutionSpace& space, const P2GParticle<MemorySpace>& ker
       "mpmrom::fom::p2g_atomic", space, kernel, launch, KOKKOS_LAMBDA() { return add; });
 }
 
-// P2G through the threads' grid copies (host backends), summed into `nodes` over `box`, which holds every stencil of
-// a particle inside the grid; on devices, atomics into `nodes`, which the caller has zeroed over `box`.
+// P2G through the threads' grid copies (host backends; copies of kernel.grid's nodes), whose sums over kernel.reach
+// (which holds every stencil that adds) become those nodes of `nodes`; on devices, atomics into `nodes`, which the
+// caller has zeroed over kernel.reach.
 template <class ExecutionSpace, class MemorySpace>
 void p2g_scatter(const ExecutionSpace& space, const P2GParticle<MemorySpace>& kernel,
-                 const GridCopies<ExecutionSpace>& copies, const GridNodeView<MemorySpace>& nodes, const NodeBox& box,
+                 const GridCopies<ExecutionSpace>& copies, const GridNodeView<MemorySpace>& nodes,
                  ParticleLaunch launch = default_particle_launch<ExecutionSpace>()) {
   if constexpr (Kokkos::SpaceAccessibility<ExecutionSpace, Kokkos::HostSpace>::accessible) {
+    if (!copies.allocated() || copies.num_nodes() != kernel.grid.num_nodes())
+      throw std::logic_error("p2g_scatter: the grid copies were not made for this grid");
     p2g_launch("mpmrom::fom::p2g_scatter", space, kernel, launch, copies.make_add());
-    copies.sum_into(space, nodes, box, kernel.grid);
+    copies.sum_into(space, nodes, kernel.reach, kernel.grid);
   } else {
     (void)copies;
-    (void)box;
     p2g_atomic(space, kernel, nodes, launch);
   }
 }

@@ -124,9 +124,7 @@ struct TransferSetup {
     Kokkos::deep_copy(nodes, real_t(0));
     switch (strategy) {
       case P2GStrategy::Atomic: p2g_atomic(space, kernel, nodes); break;
-      case P2GStrategy::Scatter:
-        p2g_scatter(space, kernel, GridCopies<ExecutionSpace>(grid.num_nodes()), nodes, NodeBox::whole(grid));
-        break;
+      case P2GStrategy::Scatter: p2g_scatter(space, kernel, GridCopies<ExecutionSpace>(grid.num_nodes()), nodes); break;
       case P2GStrategy::Tiled: p2g_tiled(space, kernel, nodes, tiling); break;
     }
     space.fence();
@@ -312,8 +310,7 @@ void check_p2g_launches_agree(P2GStrategy strategy) {
     if (strategy == P2GStrategy::Atomic) {
       p2g_atomic(ExecutionSpace(), kernel, s.nodes, launch);
     } else {
-      p2g_scatter(ExecutionSpace(), kernel, GridCopies<ExecutionSpace>(s.grid.num_nodes()), s.nodes,
-                  NodeBox::whole(s.grid), launch);
+      p2g_scatter(ExecutionSpace(), kernel, GridCopies<ExecutionSpace>(s.grid.num_nodes()), s.nodes, launch);
     }
     int outside_count = 0;
     Kokkos::deep_copy(outside_count, s.outside);
@@ -384,7 +381,7 @@ void check_scatter_over_a_box() {
   };
   const GridCopies<ExecutionSpace> copies(s.grid.num_nodes());
   Kokkos::deep_copy(s.nodes, real_t(0));
-  p2g_scatter(ExecutionSpace(), kernel_over(NodeBox::whole(s.grid)), copies, s.nodes, NodeBox::whole(s.grid));
+  p2g_scatter(ExecutionSpace(), kernel_over(NodeBox::whole(s.grid)), copies, s.nodes);
   const auto whole = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), s.nodes);
   auto x = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), s.particles.x);
   NodeBox box = NodeBox::none();
@@ -396,7 +393,7 @@ void check_scatter_over_a_box() {
   for (int round = 0; round < 2; ++round) {
     Kokkos::deep_copy(s.nodes, untouched);
     zero_box(ExecutionSpace(), s.nodes, box, s.grid);
-    p2g_scatter(ExecutionSpace(), kernel_over(box), copies, s.nodes, box);
+    p2g_scatter(ExecutionSpace(), kernel_over(box), copies, s.nodes);
     const auto nodes = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), s.nodes);
     double scale = 0;
     for (int node = 0; node < s.grid.num_nodes(); ++node)
