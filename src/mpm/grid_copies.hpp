@@ -35,12 +35,14 @@ template <class ExecutionSpace>
 class GridCopies {
  public:
   using Token = Kokkos::Experimental::UniqueToken<ExecutionSpace, Kokkos::Experimental::UniqueTokenScope::Global>;
+  using CopiesView =
+      Kokkos::View<real_t** [4], Kokkos::LayoutRight, typename ExecutionSpace::memory_space>;  // (threads, nodes, 4)
 
   GridCopies() = default;
   // Zeroed copies of a grid of num_nodes nodes, one for each thread of a host execution space (none on devices).
   explicit GridCopies(int num_nodes) {
     if constexpr (Kokkos::SpaceAccessibility<ExecutionSpace, Kokkos::HostSpace>::accessible)
-      copies_ = decltype(copies_)("mpmrom::fom::grid_copies", Token().size(), std::size_t(num_nodes));
+      copies_ = CopiesView("mpmrom::fom::grid_copies", Token().size(), std::size_t(num_nodes));
   }
 
   bool allocated() const { return copies_.is_allocated(); }
@@ -48,7 +50,7 @@ class GridCopies {
 
   // A work item's accumulator (call it in the work item: it picks the running thread's copy).
   struct MakeAdd {
-    Kokkos::View<real_t** [4], Kokkos::LayoutRight, typename ExecutionSpace::memory_space> copies;
+    CopiesView copies;
     Token token;
     KOKKOS_INLINE_FUNCTION GridCopyAdd operator()() const {
       const int id = token.acquire();  // the thread's own id on host backends: nothing to release before reuse
@@ -77,7 +79,7 @@ class GridCopies {
   }
 
  private:
-  Kokkos::View<real_t** [4], Kokkos::LayoutRight, typename ExecutionSpace::memory_space> copies_;
+  CopiesView copies_;
 };
 
 }  // namespace mpmrom
