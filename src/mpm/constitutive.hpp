@@ -4,7 +4,7 @@
 #pragma once
 
 #include "core/math/mat3.hpp"
-#include "core/math/svd3.hpp"
+#include "core/math/polar3.hpp"
 
 namespace mpmrom {
 
@@ -84,16 +84,39 @@ KOKKOS_INLINE_FUNCTION Mat3<T> neo_hookean_kirchhoff(const ElasticMaterial<T>& m
   return tau;
 }
 
+// The fixed corotated energy density and Kirchhoff stress from F, its determinant j and its polar rotation R:
+// Psi = mu |F - R|_F^2 + lambda/2 (j - 1)^2 (= mu sum_i (sigma_i - 1)^2 + ..., R = U V^T) and
+// tau = 2 mu (F - R) F^T + lambda (j - 1) j I, whose off-diagonal entries are averaged with their mirror (R F^T = R S
+// R^T is symmetric up to rounding) so that tau is exactly symmetric. One home for the scalar and the lanes' arithmetic.
+template <class T>
+KOKKOS_INLINE_FUNCTION void fixed_corotated_from_rotation(const ElasticMaterial<T>& m, const T (&F)[3][3],
+                                                          const T (&R)[3][3], T j, T (&tau)[3][3], T* psi) {
+  T D[3][3];
+  T stretch = T(0);
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b) {
+      D[a][b] = F[a][b] - R[a][b];
+      stretch += D[a][b] * D[a][b];
+    }
+  if (psi != nullptr) *psi = m.mu * stretch + T(0.5) * m.lambda * (j - T(1)) * (j - T(1));
+  const T volumetric = m.lambda * (j - T(1)) * j;
+  for (int a = 0; a < 3; ++a)
+    for (int b = a; b < 3; ++b) {
+      const T ab = D[a][0] * F[b][0] + D[a][1] * F[b][1] + D[a][2] * F[b][2];
+      const T ba = D[b][0] * F[a][0] + D[b][1] * F[a][1] + D[b][2] * F[a][2];
+      const T s = m.mu * (ab + ba);
+      tau[a][b] = s;
+      tau[b][a] = s;
+    }
+  for (int i = 0; i < 3; ++i) tau[i][i] += volumetric;
+}
+
 // Psi = mu |F - R|^2 + lambda/2 (J - 1)^2 = mu sum_i (sigma_i - 1)^2 + lambda/2 (J - 1)^2, R = U V^T.
 template <class T>
 KOKKOS_INLINE_FUNCTION T fixed_corotated_energy(const ElasticMaterial<T>& m, const Mat3<T>& F) {
-  Mat3<T> U, V;
-  Vec3<T> sigma;
-  svd3(F, U, sigma, V);
+  const Mat3<T> R = polar_rotation(F);
   const T jm1 = determinant(F) - T(1);
-  T stretch = T(0);
-  for (int i = 0; i < 3; ++i) stretch += (sigma[i] - T(1)) * (sigma[i] - T(1));
-  return m.mu * stretch + T(0.5) * m.lambda * jm1 * jm1;
+  return m.mu * ddot(F - R, F - R) + T(0.5) * m.lambda * jm1 * jm1;
 }
 
 // P = 2 mu (F - R) + lambda (J - 1) cof(F); cof(F) = J F^{-T} is defined for singular F too.
@@ -103,31 +126,14 @@ KOKKOS_INLINE_FUNCTION Mat3<T> fixed_corotated_first_piola(const ElasticMaterial
   return (T(2) * m.mu) * (F - R) + (m.lambda * (determinant(F) - T(1))) * cofactor(F);
 }
 
-// tau = P F^T = 2 mu (F - R) F^T + lambda (J - 1) J I = U diag(2 mu (sigma_i - 1) sigma_i) U^T + lambda (J - 1) J I,
-// symmetric by construction. With psi, also the energy density from the same SVD (as fixed_corotated_energy).
+// tau = P F^T = 2 mu (F - R) F^T + lambda (J - 1) J I (fixed_corotated_from_rotation). With psi, also the energy
+// density from the same R.
 template <class T>
 KOKKOS_INLINE_FUNCTION Mat3<T> fixed_corotated_kirchhoff(const ElasticMaterial<T>& m, const Mat3<T>& F,
                                                          T* psi = nullptr) {
-  Mat3<T> U, V;
-  Vec3<T> sigma;
-  svd3(F, U, sigma, V);
-  const T j = determinant(F);
-  if (psi != nullptr) {
-    T stretch = T(0);
-    for (int i = 0; i < 3; ++i) stretch += (sigma[i] - T(1)) * (sigma[i] - T(1));
-    *psi = m.mu * stretch + T(0.5) * m.lambda * (j - T(1)) * (j - T(1));
-  }
-  const T volumetric = m.lambda * (j - T(1)) * j;
-  Vec3<T> d;
-  for (int k = 0; k < 3; ++k) d[k] = T(2) * m.mu * (sigma[k] - T(1)) * sigma[k];
+  const Mat3<T> R = polar_rotation(F);
   Mat3<T> tau;
-  for (int a = 0; a < 3; ++a)
-    for (int b = a; b < 3; ++b) {
-      const T s = U(a, 0) * d[0] * U(b, 0) + U(a, 1) * d[1] * U(b, 1) + U(a, 2) * d[2] * U(b, 2);
-      tau(a, b) = s;
-      tau(b, a) = s;
-    }
-  for (int i = 0; i < 3; ++i) tau(i, i) += volumetric;
+  fixed_corotated_from_rotation(m, F.m, R.m, determinant(F), tau.m, psi);
   return tau;
 }
 
@@ -157,7 +163,7 @@ KOKKOS_INLINE_FUNCTION Mat3<T> first_piola(const ElasticMaterial<T>& m, const Ma
 
 // Kirchhoff stress tau = P F^T = J sigma (sigma: Cauchy stress), symmetric. MPM's grid force is
 // f_i = -sum_p V0_p tau_p grad w_ip. With psi, also the energy density Psi(F) (sharing the fixed corotated model's
-// SVD, the costly part of both).
+// polar rotation, the costly part of both).
 template <class T>
 KOKKOS_INLINE_FUNCTION Mat3<T> kirchhoff_stress(const ElasticMaterial<T>& m, const Mat3<T>& F, T* psi = nullptr) {
   switch (m.model) {

@@ -1,6 +1,7 @@
-// The CPU block kernels' stress across lanes (svd3_lanes, kirchhoff_stress_lanes) against the one-matrix routines
-// (svd3, kirchhoff_stress) lane by lane, on generic, repeated-singular-value, near-singular, rank-deficient,
-// inverted and zero matrices, in blocks where lanes converge after different numbers of sweeps.
+// The CPU block kernels' stress across lanes (polar_rotation_lanes, kirchhoff_stress_lanes) against the one-matrix
+// routines (polar_rotation, kirchhoff_stress) lane by lane, on generic, near-identity, repeated-singular-value,
+// near-singular, rank-deficient, inverted and zero matrices, in blocks where lanes converge after different numbers of
+// steps and some take svd3 instead.
 #include <algorithm>
 #include <cmath>
 #include <random>
@@ -15,7 +16,7 @@ namespace {
 constexpr int L = 8;
 using M = Mat3<real_t>;
 
-// Matrices of every kind svd3 treats apart, shuffled so that each block of L mixes them.
+// Matrices of every kind polar_rotation and svd3 treat apart, shuffled so that each block of L mixes them.
 std::vector<M> mixed_matrices() {
   std::mt19937_64 rng(21);
   std::uniform_real_distribution<double> u(-1, 1);
@@ -44,34 +45,27 @@ std::vector<M> mixed_matrices() {
   return out;
 }
 
-// Lane by lane, svd3_lanes gives svd3's factors: the same operations in the same order, so they differ only where
-// the compiler contracts a multiply-add differently (a few roundings of O(1) entries a rotation, over at most
-// kSvd3MaxSweeps sweeps); 64 eps of |F| allows that for sigma and of 1 for U and V. Degenerate cases keep that
-// bound as long as both take the same branches, which the same inputs and nearly the same roundings give here.
-TEST(StressLanes, Svd3LanesMatchesSvd3LaneByLane) {
+// Lane by lane, polar_rotation_lanes gives polar_rotation: Newton's steps in the same order (lanes that converge
+// early are held while others step) or svd3 itself where the iteration does not apply, so they differ only where the
+// compiler contracts a multiply-add differently; Newton's iteration corrects earlier roundings, leaving those of its
+// last steps (a few eps of O(1) entries) and svd3's (as before: a few roundings a rotation over at most kSvd3MaxSweeps
+// sweeps): 64 eps.
+TEST(StressLanes, PolarRotationLanesMatchesPolarRotationLaneByLane) {
   const std::vector<M> fs = mixed_matrices();
-  double worst_sigma = 0, worst_rotation = 0;
+  double worst = 0;
   for (std::size_t first = 0; first < fs.size(); first += L) {
-    real_t F[3][3][L], U[3][3][L], sigma[3][L], V[3][3][L];
+    real_t F[3][3][L], R[3][3][L];
     for (int l = 0; l < L; ++l)
       for (int i = 0; i < 3; ++i)
         for (int j = 0; j < 3; ++j) F[i][j][l] = fs[first + l](i, j);
-    svd3_lanes(F, U, sigma, V);
+    polar_rotation_lanes(F, R);
     for (int l = 0; l < L; ++l) {
-      M u, v;
-      Vec3<real_t> s;
-      svd3(fs[first + l], u, s, v);
-      const double size = std::max(1e-30, double(frobenius_norm(fs[first + l])));
-      for (int i = 0; i < 3; ++i) {
-        worst_sigma = std::max(worst_sigma, std::fabs(double(sigma[i][l]) - s[i]) / size);
-        for (int j = 0; j < 3; ++j)
-          worst_rotation = std::max(
-              {worst_rotation, std::fabs(double(U[i][j][l]) - u(i, j)), std::fabs(double(V[i][j][l]) - v(i, j))});
-      }
+      const M r = polar_rotation(fs[first + l]);
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) worst = std::max(worst, std::fabs(double(R[i][j][l]) - r(i, j)));
     }
   }
-  EXPECT_LE(worst_sigma, 64 * eps);
-  EXPECT_LE(worst_rotation, 64 * eps);
+  EXPECT_LE(worst, 64 * eps);
 }
 
 // kirchhoff_stress_lanes gives kirchhoff_stress and its energy lane by lane, for both models, to 64 eps of the

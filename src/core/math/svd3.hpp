@@ -1,5 +1,6 @@
-// Rotation-variant SVD and polar rotation of a 3x3 matrix by one-sided Jacobi. Parallelism contract: each routine
-// runs entirely within the calling thread (one matrix per call; no heap, no recursion, bounded loops).
+// Rotation-variant SVD of a 3x3 matrix by one-sided Jacobi (its polar rotation: core/math/polar3.hpp). Parallelism
+// contract: each routine runs entirely within the calling thread (one matrix per call; no heap, no recursion, bounded
+// loops).
 #pragma once
 
 #include "core/math/mat3.hpp"
@@ -142,16 +143,6 @@ KOKKOS_INLINE_FUNCTION void svd3(const Mat3<T>& F, Mat3<T>& U, Vec3<T>& sigma, M
     U(i, 1) = u2[i];
     U(i, 2) = u3[i];
   }
-}
-
-// Rotation of the rotation-variant polar decomposition F = R S: R = U V^T, a proper rotation even when det F <= 0
-// (then the symmetric S = V diag(sigma) V^T carries the reflection). Unique where sigma[1] + sigma[2] > 0.
-template <class T>
-KOKKOS_INLINE_FUNCTION Mat3<T> polar_rotation(const Mat3<T>& F) {
-  Mat3<T> U, V;
-  Vec3<T> sigma;
-  svd3(F, U, sigma, V);
-  return multiply_transposed(U, V);
 }
 
 }  // namespace mpmrom
