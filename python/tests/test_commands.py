@@ -90,6 +90,9 @@ def test_ctrl_c_stops_a_command_at_its_next_progress_point(tiny, tmp_path):
     """SIGINT while a long training runs (the lock released) raises KeyboardInterrupt within an epoch or so, and
     leaves no model file behind."""
     out = tmp_path / "model.h5"
+    # Python leaves SIGINT ignored when it starts with it ignored (a shell's background job without job control):
+    # Ctrl-C's handler is set here so that the test does not depend on how it was launched.
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
     timer = threading.Timer(0.5, os.kill, (os.getpid(), signal.SIGINT))
     start = time.perf_counter()
     timer.start()
@@ -98,6 +101,7 @@ def test_ctrl_c_stops_a_command_at_its_next_progress_point(tiny, tmp_path):
             mpmrom.train(tiny["sweep"], out, latent=2, width=8, depth=3, epochs=1000000, progress=lambda line: None)
     finally:
         timer.cancel()
+        signal.signal(signal.SIGINT, previous)
     # A million epochs take many minutes; stopping at the next epoch takes well under the 60 s allowed here.
     assert time.perf_counter() - start < 60
     assert not out.exists()

@@ -123,7 +123,8 @@ class FomSolver {
   // Each step's reductions land on the device and come back in one copy, so the host waits once per step.
   G2PSummaryView<MemorySpace> step_g2p_;
   Kokkos::View<double, MemorySpace> step_grid_work_, step_force_power_, step_energy_;
-  // The periodic energy check rides on the next step's P2G, which computes each point's SVD anyway: V_p Psi(F_p).
+  // The periodic energy check rides on the next step's P2G, which computes each point's polar rotation anyway: V_p
+  // Psi(F_p).
   bool energy_check_due_ = false;
   Kokkos::View<double*, MemorySpace> elastic_energy_;
   StepDiagnostics<MemorySpace> step_diagnostics_;

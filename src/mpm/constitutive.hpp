@@ -5,6 +5,7 @@
 
 #include "core/math/mat3.hpp"
 #include "core/math/polar3.hpp"
+#include "core/math/unroll.hpp"
 
 namespace mpmrom {
 
@@ -93,21 +94,29 @@ KOKKOS_INLINE_FUNCTION void fixed_corotated_from_rotation(const ElasticMaterial<
                                                           const T (&R)[3][3], T j, T (&tau)[3][3], T* psi) {
   T D[3][3];
   T stretch = T(0);
-  for (int a = 0; a < 3; ++a)
+  MPMROM_UNROLL
+  for (int a = 0; a < 3; ++a) {
+    MPMROM_UNROLL
     for (int b = 0; b < 3; ++b) {
       D[a][b] = F[a][b] - R[a][b];
       stretch += D[a][b] * D[a][b];
     }
+  }
   if (psi != nullptr) *psi = m.mu * stretch + T(0.5) * m.lambda * (j - T(1)) * (j - T(1));
   const T volumetric = m.lambda * (j - T(1)) * j;
-  for (int a = 0; a < 3; ++a)
-    for (int b = a; b < 3; ++b) {
+  MPMROM_UNROLL
+  for (int a = 0; a < 3; ++a) {
+    MPMROM_UNROLL
+    for (int b = 0; b < 3; ++b) {
+      if (b < a) continue;  // the lower triangle mirrors the upper
       const T ab = D[a][0] * F[b][0] + D[a][1] * F[b][1] + D[a][2] * F[b][2];
       const T ba = D[b][0] * F[a][0] + D[b][1] * F[a][1] + D[b][2] * F[a][2];
       const T s = m.mu * (ab + ba);
       tau[a][b] = s;
       tau[b][a] = s;
     }
+  }
+  MPMROM_UNROLL
   for (int i = 0; i < 3; ++i) tau[i][i] += volumetric;
 }
 

@@ -28,17 +28,25 @@ inline void kirchhoff_stress_lanes(const ElasticMaterial<T>& m, const T (&F)[3][
   polar_rotation_lanes(F, R);
   MPMROM_SIMD for (int l = 0; l < L; ++l) {
     T Fl[3][3], Rl[3][3], t[3][3];
-    for (int i = 0; i < 3; ++i)
+    MPMROM_UNROLL
+    for (int i = 0; i < 3; ++i) {
+      MPMROM_UNROLL
       for (int k = 0; k < 3; ++k) {
         Fl[i][k] = F[i][k][l];
         Rl[i][k] = R[i][k][l];
       }
+    }
     const T j = Fl[0][0] * (Fl[1][1] * Fl[2][2] - Fl[1][2] * Fl[2][1]) -
                 Fl[0][1] * (Fl[1][0] * Fl[2][2] - Fl[1][2] * Fl[2][0]) +
                 Fl[0][2] * (Fl[1][0] * Fl[2][1] - Fl[1][1] * Fl[2][0]);  // determinant(F)
-    detail::fixed_corotated_from_rotation(m, Fl, Rl, j, t, psi != nullptr ? &(*psi)[l] : nullptr);
-    for (int i = 0; i < 3; ++i)
+    T energy;
+    detail::fixed_corotated_from_rotation(m, Fl, Rl, j, t, &energy);
+    if (psi != nullptr) (*psi)[l] = energy;
+    MPMROM_UNROLL
+    for (int i = 0; i < 3; ++i) {
+      MPMROM_UNROLL
       for (int k = 0; k < 3; ++k) tau[i][k][l] = t[i][k];
+    }
   }
 }
 

@@ -39,7 +39,8 @@ ParticleEnergy particle_energy(const ExecutionSpace& space, const ParticleViews<
 }
 
 // Kinetic + elastic energy into `energy` (a device View, so the host need not wait), the elastic part from per-point
-// values V_p Psi(F_p) computed elsewhere (P2G, which has each point's SVD at hand, on the FOM's checking steps).
+// values V_p Psi(F_p) computed elsewhere (P2G, which has each point's polar rotation at hand, on the FOM's checking
+// steps).
 template <class ExecutionSpace, class MemorySpace>
 void particle_energy_total(const ExecutionSpace& space, const ParticleViews<MemorySpace>& particles,
                            const Kokkos::View<double*, MemorySpace>& elastic_per_point,

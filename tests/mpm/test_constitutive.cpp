@@ -39,6 +39,21 @@ M to_real(const MD& a) {
   return b;
 }
 
+// How far polar_rotation(F) may lie from svd3's U V^T, beyond svd3's own orth_tol. Where Newton's iteration applies
+// (det F > 0, Frobenius condition kappa = |F| |F^-1| <= kPolar3MaxCondition; a tenth more for the device's roundings
+// near the limit) the two are different computations: svd3 is backward stable to recon_tol |F| and Newton's first
+// step inverts X by cofactors to about eps kappa / 2 relative, which moves its polar factor by about
+// eps kappa^(3/2) / 4 (later steps correct their own roundings); the polar factor moves by at most
+// 2 |dF| / (sigma_1 + sigma_2) (the two smallest singular values). Elsewhere polar_rotation is svd3's U V^T: 0.
+double newton_polar_gap(const MD& f, double recon_tol, double sigma_1, double sigma_2) {
+  const double det = determinant(f);
+  if (!(det > 0)) return 0;
+  const double kappa = frobenius_norm(f) * frobenius_norm(cofactor(f)) / det;
+  if (!(kappa <= 1.1 * kPolar3MaxCondition)) return 0;
+  const double fn = frobenius_norm(f);
+  return 2 * (recon_tol * fn + eps * std::pow(kappa, 1.5) / 4 * fn) / (sigma_1 + std::fabs(sigma_2));
+}
+
 // Uniformly distributed rotation: the matrix of a normalised Gaussian quaternion.
 MD random_rotation(std::mt19937_64& rng) {
   std::normal_distribution<double> normal;
@@ -193,10 +208,13 @@ void check_svd(const char* what, const std::vector<SvdCase>& cases) {
             << what << " " << p << ": sigma[" << k << "]";
       }
     }
-    // polar_rotation is U V^T of the same decomposition, a proper rotation with R^T F symmetric.
-    EXPECT_LE(frobenius_norm(r - u * transpose(v)), orth_tol) << what << " " << p << ": polar_rotation != U V^T";
+    // polar_rotation is U V^T (Newton's iteration, or svd3's own where it does not apply), a proper rotation with
+    // R^T F symmetric; a gap of |dR| makes R^T F asymmetric by up to 2 |dR| |F|.
+    const double gap = newton_polar_gap(f, recon_tol, s1, s2);
+    EXPECT_LE(frobenius_norm(r - u * transpose(v)), orth_tol + gap) << what << " " << p << ": polar_rotation != U V^T";
     const MD s = transpose(r) * f;
-    EXPECT_LE(frobenius_norm(s - transpose(s)), sym_tol * fn) << what << " " << p << ": R^T F not symmetric";
+    EXPECT_LE(frobenius_norm(s - transpose(s)), (sym_tol + 2 * gap) * fn)
+        << what << " " << p << ": R^T F not symmetric";
   }
 }
 
@@ -515,7 +533,7 @@ void zero_stress_at_rotations() {
   for (int p = 0; p < 500; ++p) rotations.push_back(to_real(random_rotation(rng)));
   for (const auto& material : materials()) {
     const auto dev = evaluate<ExecutionSpace>(material, rotations);
-    // At F = I every operation is exact (J = 1, ln 1 = 0, the SVD does no rotation): exactly zero.
+    // At F = I every operation is exact (J = 1, ln 1 = 0, Newton's step at I is I: zeta = 1): exactly zero.
     EXPECT_EQ(dev.energy[0], real_t(0));
     EXPECT_EQ(frobenius_norm(to_double(dev.piola[0])), 0.0);
     EXPECT_EQ(frobenius_norm(to_double(dev.kirchhoff[0])), 0.0);
@@ -653,15 +671,14 @@ TYPED_TEST(ConstitutiveTest, KirchhoffIsPFTransposed) { kirchhoff_is_p_f_transpo
 TYPED_TEST(ConstitutiveTest, SingularAndInverted) { singular_and_inverted<TypeParam>(); }
 
 // polar_rotation_newton where it applies (det F > 0, Frobenius condition <= 30): F = Q S with random rotations and
-// principal stretches in [0.5, 2] (condition <= 12), and F near rotations as MPM's are. Both it and svd3 are backward
-// stable to a few eps |F| (svd3: 32 eps, check_svd; Newton: its last step's roundings, the earlier ones corrected), and
-// the polar factor moves by at most 2 |dF| / (sigma_1 + sigma_2) (Higham 1986), here <= 2 |dF| with sigma_i >= 0.5:
-// 2 (32 + 8) eps |F| <= 2 * 40 * 2 sqrt(3) eps. Measured: <= 7.6 eps (double and float, 2e5 matrices).
-// Where it does not apply it says so and polar_rotation takes svd3's, tested above (Svd3Test, check_svd).
+// principal stretches in [0.5, 2] (condition <= 6.1), and F near rotations as MPM's are, against svd3's U V^T within
+// newton_polar_gap (svd3's backward error 32 eps |F| and Newton's first inverse, through the polar factor's
+// sensitivity); measured far inside it: <= 7.6 eps (double and float, 2e5 such matrices). Where it does not apply it
+// says so, and polar_rotation takes svd3's (Svd3Test, check_svd).
 TEST(ConstitutiveHost, PolarRotationByNewtonMatchesSvd) {
   std::mt19937_64 rng(31);
   std::uniform_real_distribution<double> stretch(0.5, 2), small(-0.01, 0.01);
-  double worst = 0;
+  double worst = 0;  // recorded, not asserted: the bound above is per case
   for (int p = 0; p < 2000; ++p) {
     const MD q = random_rotation(rng), axes = random_rotation(rng);
     MD s;
@@ -676,9 +693,11 @@ TEST(ConstitutiveHost, PolarRotationByNewtonMatchesSvd) {
     Vec3<real_t> sigma;
     ASSERT_TRUE(polar_rotation_newton(f, r)) << p;
     svd3(f, u, sigma, v);
-    worst = std::max(worst, frobenius_norm(to_double(r) - to_double(u) * transpose(to_double(v))));
+    const double gap = frobenius_norm(to_double(r) - to_double(u) * transpose(to_double(v)));
+    EXPECT_LE(gap, 32 * eps + newton_polar_gap(to_double(f), 32 * eps, sigma[1], sigma[2])) << p;
+    worst = std::max(worst, gap);
   }
-  EXPECT_LE(worst, 2 * 40 * 2 * std::sqrt(3.0) * eps);
+  RecordProperty("worst_gap_in_eps", std::to_string(worst / eps));
   M r;
   EXPECT_FALSE(polar_rotation_newton(M::diagonal(1, 1, -1), r)) << "inverted: svd3's rotation-variant R";
   EXPECT_FALSE(polar_rotation_newton(M::zero(), r));

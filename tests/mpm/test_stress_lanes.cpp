@@ -4,6 +4,7 @@
 // steps and some take svd3 instead.
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <random>
 #include <vector>
 
@@ -33,9 +34,16 @@ std::vector<M> mixed_matrices() {
   }
   out.push_back(M::zero());
   out.push_back(M::identity());
-  out.push_back(M::diagonal(2, 2, 1));             // repeated singular values
-  out.push_back(M::diagonal(1, 1, -1));            // inverted
-  out.push_back(M::diagonal(3, real_t(1e-7), 0));  // near singular, rank 2
+  out.push_back(M::diagonal(2, 2, 1));                        // repeated singular values
+  out.push_back(M::diagonal(1, 1, -1));                       // inverted
+  out.push_back(M::diagonal(3, real_t(1e-7), 0));             // near singular, rank 2
+  out.push_back(M::diagonal(1, real_t(0.02), real_t(0.02)));  // condition 71: Newton's first step refuses it
+  out.push_back(M::diagonal(1, real_t(0.1), real_t(0.1)));    // condition 14: Newton's
+  M not_finite = M::identity(), infinite = M::identity();
+  not_finite(0, 1) = std::numeric_limits<real_t>::quiet_NaN();
+  infinite(2, 0) = std::numeric_limits<real_t>::infinity();
+  out.push_back(not_finite);
+  out.push_back(infinite);
   M rank_one = M::zero();
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) rank_one(i, j) = real_t((i + 1) * (j + 2));
@@ -62,7 +70,11 @@ TEST(StressLanes, PolarRotationLanesMatchesPolarRotationLaneByLane) {
     for (int l = 0; l < L; ++l) {
       const M r = polar_rotation(fs[first + l]);
       for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j) worst = std::max(worst, std::fabs(double(R[i][j][l]) - r(i, j)));
+        for (int j = 0; j < 3; ++j) {
+          // a non-finite input gives a non-finite rotation on both paths (svd3's non-finite sigma and factors)
+          EXPECT_EQ(std::isfinite(R[i][j][l]), std::isfinite(r(i, j))) << first + l;
+          if (std::isfinite(r(i, j))) worst = std::max(worst, std::fabs(double(R[i][j][l]) - r(i, j)));
+        }
     }
   }
   EXPECT_LE(worst, 64 * eps);

@@ -14,7 +14,7 @@ namespace mpmrom {
 constexpr int kPolar3MaxIterations = 12;
 
 // Newton's inverse by the cofactor matrix carries rounding errors of about eps |F| |F^{-1}|; above this Frobenius
-// condition number (3 for a rotation; principal stretches about 20 to 1) the caller takes svd3 instead, whose error
+// condition number (3 for a rotation; principal stretches about 20-30 to 1) the caller takes svd3 instead, whose error
 // does not grow with it. Elastic states lie far below it.
 constexpr double kPolar3MaxCondition = 30;
 
@@ -76,13 +76,15 @@ KOKKOS_INLINE_FUNCTION bool polar_newton_converged(T change) {
 
 // R of F = R S by Newton's iteration, for det F > 0: true with R a rotation to a few eps; false (R undefined) where
 // det F <= 0, an entry is not finite, F's condition exceeds kPolar3MaxCondition, or the iteration does not converge
-// within kPolar3MaxIterations. F is scaled
-// by its largest entry first, so nothing overflows.
+// within kPolar3MaxIterations. F is scaled by its largest entry first, so nothing overflows.
 template <class T>
 KOKKOS_INLINE_FUNCTION bool polar_rotation_newton(const Mat3<T>& F, Mat3<T>& R) {
   T scale = T(0);
-  for (int i = 0; i < 3; ++i)
+  MPMROM_UNROLL
+  for (int i = 0; i < 3; ++i) {
+    MPMROM_UNROLL
     for (int j = 0; j < 3; ++j) scale = math::max(scale, math::fabs(F(i, j)));
+  }
   if (!(scale > T(0)) || !math::isfinite(scale)) return false;
   R = (T(1) / scale) * F;
   for (int k = 0; k < kPolar3MaxIterations; ++k) {
@@ -96,7 +98,7 @@ KOKKOS_INLINE_FUNCTION bool polar_rotation_newton(const Mat3<T>& F, Mat3<T>& R) 
 
 // Rotation of the rotation-variant polar decomposition F = R S: R = U V^T of svd3, a proper rotation even when
 // det F <= 0 (then the symmetric S = V diag(sigma) V^T carries the reflection). Unique where sigma[1] + sigma[2] > 0.
-// Newton's iteration where det F > 0 (the two agree to a few eps / (sigma[1] + sigma[2])), svd3 otherwise.
+// Newton's iteration where det F > 0 (the two agree to a few eps |F| / (sigma[1] + sigma[2])), svd3 otherwise.
 template <class T>
 KOKKOS_INLINE_FUNCTION Mat3<T> polar_rotation(const Mat3<T>& F) {
   Mat3<T> R;
