@@ -65,6 +65,15 @@ KOKKOS_INLINE_FUNCTION T polar_newton_step(T (&x)[3][3], T& condition) {
   return ok ? change : T(-1);
 }
 
+// svd3's rotation U V^T: polar_rotation where Newton's iteration does not apply.
+template <class T>
+KOKKOS_INLINE_FUNCTION Mat3<T> svd_rotation(const Mat3<T>& F) {
+  Mat3<T> U, V;
+  Vec3<T> sigma;
+  svd3(F, U, sigma, V);
+  return multiply_transposed(U, V);
+}
+
 // Whether a Newton step that moved X by |dX|_F^2 = change leaves X within a few eps of R: the error after a step is
 // about the square of the step's size.
 template <class T>
@@ -102,11 +111,7 @@ KOKKOS_INLINE_FUNCTION bool polar_rotation_newton(const Mat3<T>& F, Mat3<T>& R) 
 template <class T>
 KOKKOS_INLINE_FUNCTION Mat3<T> polar_rotation(const Mat3<T>& F) {
   Mat3<T> R;
-  if (polar_rotation_newton(F, R)) return R;
-  Mat3<T> U, V;
-  Vec3<T> sigma;
-  svd3(F, U, sigma, V);
-  return multiply_transposed(U, V);
+  return polar_rotation_newton(F, R) ? R : detail::svd_rotation(F);
 }
 
 }  // namespace mpmrom

@@ -58,12 +58,10 @@ inline void polar_rotation_lanes(const T (&F)[3][3][L], T (&R)[3][3][L]) {
   }
   for (int l = 0; l < L; ++l) {
     if (stepping[l] == T(0) && failed[l] == T(0)) continue;  // converged
-    Mat3<T> Fl, U, V;
-    Vec3<T> sigma;
+    Mat3<T> Fl;
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j) Fl(i, j) = F[i][j][l];
-    svd3(Fl, U, sigma, V);
-    const Mat3<T> Rl = multiply_transposed(U, V);
+    const Mat3<T> Rl = detail::svd_rotation(Fl);
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j) R[i][j][l] = Rl(i, j);
   }
