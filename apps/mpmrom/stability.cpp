@@ -13,13 +13,14 @@ namespace {
 
 struct Options {
   StabilitySettings stability_settings;
-  std::string stability_selection = "greedy";
+  std::string stability_selection = "auto";  // each method's default (rom_defaults)
 };
 
 // o is a copy: the run completes its settings.
 int run(Options o, const Context& context) {
   const bool quiet = context.quiet;
-  o.stability_settings.selection = mpmrom::sample_selection_from_string(o.stability_selection);
+  if (o.stability_selection != "auto")
+    o.stability_settings.selection = mpmrom::sample_selection_from_string(o.stability_selection);
   std::size_t done = 0;
   const auto cases = mpmrom::run_stability(o.stability_settings, [&](const mpmrom::StabilityCase& c) {
     if (quiet) return;
@@ -46,13 +47,17 @@ void add_stability(CLI::App& app, Commands& commands) {
       "samples, material, load)");
   add_input(command, "scene", o->stability_settings.scene_path, "Scene file (TOML) of the sweep the model learned");
   add_input(command, "--model", o->stability_settings.model_path, "Model file (from mpmrom train)");
-  command->add_option("--data", o->stability_settings.data_dir, "The sweep the model was trained on (greedy samples)")
+  command
+      ->add_option("--data", o->stability_settings.data_dir,
+                   "The sweep the model was trained on (for --selection greedy)")
       ->check(CLI::ExistingDirectory);
   command->add_option("--out", o->stability_settings.out_dir, "Output directory (stability.md, .json, charts)")
       ->required();
   add_defaulted(command, "--samples", o->stability_settings.samples,
                 "Sample points of the hyper-reduced configurations");
-  add_defaulted(command, "--selection", o->stability_selection, "Sample selection: region, random or greedy");
+  add_defaulted(command, "--selection", o->stability_selection,
+                "Sample selection: auto (each method's default, as a rollout without flags), or one of the rollout's "
+                "--selection values for both methods");
   add_defaulted(command, "--threshold", o->stability_settings.threshold,
                 "Position error (fraction) above which a run counts as inaccurate");
   add_defaulted(command, "--fom-cfl", o->stability_settings.fom_cfl, "FOM time steps (CFL numbers)");

@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -17,10 +18,12 @@ namespace mpmrom {
 struct StabilitySettings {
   std::string scene_path;  // the scene of the sweep the model was trained on
   std::string model_path;
-  std::string data_dir;  // the sweep: greedy sample selection fits its training runs
+  std::string data_dir;  // the sweep: the velocity-fitted greedy selection (--selection greedy) fits its training runs
   std::string out_dir;
   int samples = 15;  // the hyper-reduced configurations' sample points
-  SampleSelection selection = SampleSelection::Greedy;
+  // nullopt: each method's own default, as a rollout without flags (docs/rom.md "Defaults"): Algorithm 1 the model's
+  // stored greedy projection set with its fitted weights, Algorithm 2 its samples fitted to its own step.
+  std::optional<SampleSelection> selection;
   // A run no detector stopped still counts as failed when its position error exceeds this (fraction).
   double threshold = 0.05;
   double fom_max_cfl = 0.5;  // the FOM's sub-stepping safeguard, mapped beside the FOM without it

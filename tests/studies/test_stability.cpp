@@ -17,6 +17,7 @@
 #include "io/hdf5_file.hpp"
 #include "snapshots/simulate.hpp"
 #include "mpmrom/snapshot.hpp"
+#include "studies/detail/study_runner.hpp"
 #include "studies/stability.hpp"
 
 #include <unistd.h>
@@ -145,6 +146,24 @@ TEST(StabilityMap, ClassifiesStoppedInaccurateAndStableRuns) {
   EXPECT_EQ(classify(false, 0.06, 0.05), "inaccurate");
   EXPECT_EQ(classify(false, std::nan(""), 0.05), "inaccurate");
   EXPECT_EQ(classify(false, 0.05, 0.05), "stable");
+}
+
+// Without --selection the map's hyper-reduced configurations are each method's rollout without flags (docs/rom.md
+// "Defaults": Algorithm 1's stored greedy projection set, Algorithm 2's samples fitted to its own step); a selection
+// given applies to both methods and changes nothing else.
+TEST(StabilityMap, HyperReducedConfigurationsAreTheRolloutsDefaults) {
+  EXPECT_FALSE(StabilitySettings{}.selection.has_value());
+  const std::string scene = fixture_path("spinning_block.toml");
+  const StudyRunner defaults(scene, StabilitySettings{}.selection);
+  const StudyRunner greedy(scene, SampleSelection::Greedy);
+  for (const RomMethod method : {RomMethod::MaterialPoint, RomMethod::SampleNode}) {
+    RomSettings expected = rom_defaults(method);
+    expected.samples = 15;
+    expected.cfl = 3;
+    EXPECT_EQ(defaults.rom_settings(method, 15, 3).to_json(), expected.to_json()) << to_string(method);
+    expected.selection = SampleSelection::Greedy;
+    EXPECT_EQ(greedy.rom_settings(method, 15, 3).to_json(), expected.to_json()) << to_string(method);
+  }
 }
 
 }  // namespace

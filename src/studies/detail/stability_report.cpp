@@ -21,7 +21,11 @@ std::string stability_markdown(const StabilitySettings& settings, const std::vec
                                const Model& model, const std::string& scene_name) {
   std::ostringstream md;
   md << "# Stability map: " << scene_name << "\n\n"
-     << "Model `" << settings.model_path << "` (r = " << model.latent_dim << "). Each case runs to its end or to the "
+     << "Model `" << settings.model_path << "` (r = " << model.latent_dim
+     << "). Hyper-reduced configurations: " << settings.samples << " samples, "
+     << (settings.selection ? "`--selection " + to_string(*settings.selection) + "`"
+                            : std::string("each method's default selection (as a rollout without flags)"))
+     << ". Each case runs to its end or to the "
      << "first detector that trips; errors are against the full-order model at the scene's time step with the same "
      << "parameters, material and horizon. **unstable**: a detector stopped it; **inaccurate**: position error above "
      << percent(settings.threshold, "-")
@@ -162,6 +166,8 @@ void write_stability_report(const StabilitySettings& settings, const std::vector
   record["model"] = settings.model_path;
   record["latent_dim"] = model.latent_dim;
   record["threshold"] = settings.threshold;
+  record["samples"] = settings.samples;
+  record["selection"] = settings.selection ? to_string(*settings.selection) : std::string("default");
   record["cases"] = nlohmann::json::array();
   for (const auto& c : cases) record["cases"].push_back(c.to_json());
   write_file_atomically((dir / "stability.json").string(), record.dump(1) + "\n");
