@@ -167,7 +167,7 @@ void write_stability_report(const StabilitySettings& settings, const std::vector
   record["latent_dim"] = model.latent_dim;
   record["threshold"] = settings.threshold;
   record["samples"] = settings.samples;
-  record["selection"] = settings.selection ? to_string(*settings.selection) : std::string("default");
+  record["selection"] = settings.selection ? to_string(*settings.selection) : std::string("auto");
   record["cases"] = nlohmann::json::array();
   for (const auto& c : cases) record["cases"].push_back(c.to_json());
   write_file_atomically((dir / "stability.json").string(), record.dump(1) + "\n");
